@@ -1,1 +1,29 @@
-pub fn x() {}
+//! The artifact contract of reprise: every table a stage writes or reads, with its
+//! columns, schema version and typed, checked read/write. No math lives here.
+//!
+//! | artifact | module | producer | consumers |
+//! |---|---|---|---|
+//! | `frames` | [`frames`] | ingest | label |
+//! | `controls` | [`controls`] | ingest | label, scale, every mesh-space stage |
+//! | `clips` | [`clips`] | ingest | label |
+//! | `segments` | [`segments`] | label | pca, gplvm, synthesize, motion-graph |
+//! | `labeled_frames` | [`frames`] | label | scale, pca, motion-graph, evaluate |
+//!
+//! Every file carries provenance ([`provenance`]) in its Parquet key-value metadata and
+//! is written atomically ([`table::write_atomic`]).
+#![warn(missing_docs)]
+
+pub mod error;
+pub mod provenance;
+pub mod table;
+mod kinds {
+    pub mod clips;
+    pub mod controls;
+    pub mod frames;
+    pub mod segments;
+}
+pub use kinds::{clips, controls, frames, segments};
+
+pub use error::{ArtifactError, Result};
+pub use provenance::Provenance;
+pub use table::{Columns, Kind, Table};

@@ -1,0 +1,140 @@
+//! Provenance: who wrote an artifact, with which parameters, from which inputs. It
+//! travels in the Parquet file's key-value metadata under `reprise.*` keys, so any
+//! Parquet reader (pyarrow, polars, DuckDB) can see where a table came from.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ArtifactError, Result};
+
+/// Metadata key: the artifact kind (e.g. `frames`).
+pub const KEY_KIND: &str = "reprise.schema";
+/// Metadata key: the artifact kind's schema version.
+pub const KEY_SCHEMA_VERSION: &str = "reprise.schema_version";
+/// Metadata key: the producing stage's name.
+pub const KEY_STAGE: &str = "reprise.stage";
+/// Metadata key: the producing stage's version (its crate version).
+pub const KEY_STAGE_VERSION: &str = "reprise.stage_version";
+/// Metadata key: the stage's parameters as canonical JSON (keys sorted).
+pub const KEY_PARAMS: &str = "reprise.params";
+/// Metadata key: blake3 of the canonical parameter JSON.
+pub const KEY_PARAMS_HASH: &str = "reprise.params_hash";
+/// Metadata key: JSON object `name -> {path, blake3}` of the stage's input files.
+pub const KEY_INPUTS: &str = "reprise.inputs";
+
+/// One input file of a stage, identified by its content.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct InputRef {
+    /// The path as the stage was given it.
+    pub path: String,
+    /// blake3 of the file's bytes, hex.
+    pub blake3: String,
+}
+
+/// Who produced an artifact and from what.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Provenance {
+    /// Stage name, e.g. `ingest`.
+    pub stage: String,
+    /// Stage version, e.g. `0.1.0`.
+    pub stage_version: String,
+    /// Parameters as a JSON object; serialised canonically (sorted keys).
+    pub params: serde_json::Value,
+    /// Input files by role name.
+    pub inputs: BTreeMap<String, InputRef>,
+}
+
+impl Provenance {
+    /// A provenance record with no inputs yet.
+    pub fn new(stage: &str, stage_version: &str, params: serde_json::Value) -> Self {
+        Self { stage: stage.into(), stage_version: stage_version.into(), params, inputs: BTreeMap::new() }
+    }
+
+    /// Records an input file by hashing its content now.
+    pub fn with_input(mut self, name: &str, path: &Path) -> Result<Self> {
+        let hash = hash_file(path)?;
+        self.inputs.insert(name.into(), InputRef { path: path.display().to_string(), blake3: hash });
+        Ok(self)
+    }
+
+    /// Canonical JSON of the parameters (`serde_json` maps are sorted by key).
+    pub fn params_json(&self) -> String {
+        canonical_json(&self.params)
+    }
+
+    /// The `reprise.*` key-value pairs (without kind and schema version).
+    pub fn to_metadata(&self) -> Vec<(String, String)> {
+        let params = self.params_json();
+        vec![
+            (KEY_STAGE.into(), self.stage.clone()),
+            (KEY_STAGE_VERSION.into(), self.stage_version.clone()),
+            (KEY_PARAMS_HASH.into(), blake3::hash(params.as_bytes()).to_hex().to_string()),
+            (KEY_PARAMS.into(), params),
+            (KEY_INPUTS.into(), serde_json::to_string(&self.inputs).expect("string map serialises")),
+        ]
+    }
+
+    /// Reads provenance back from key-value metadata.
+    pub fn from_metadata(path: &Path, meta: &BTreeMap<String, String>) -> Result<Self> {
+        let get = |key: &str| {
+            meta.get(key).ok_or_else(|| ArtifactError::Metadata {
+                path: path.into(),
+                key: key.into(),
+                message: "missing".into(),
+            })
+        };
+        let bad = |key: &str, e: serde_json::Error| ArtifactError::Metadata {
+            path: path.into(),
+            key: key.into(),
+            message: e.to_string(),
+        };
+        Ok(Self {
+            stage: get(KEY_STAGE)?.clone(),
+            stage_version: get(KEY_STAGE_VERSION)?.clone(),
+            params: serde_json::from_str(get(KEY_PARAMS)?).map_err(|e| bad(KEY_PARAMS, e))?,
+            inputs: serde_json::from_str(get(KEY_INPUTS)?).map_err(|e| bad(KEY_INPUTS, e))?,
+        })
+    }
+}
+
+/// Serialises a JSON value with object keys sorted, so equal parameters hash equally.
+pub fn canonical_json(value: &serde_json::Value) -> String {
+    // serde_json's default `Map` is a BTreeMap: keys come out sorted at every level.
+    serde_json::to_string(value).expect("JSON values serialise")
+}
+
+/// blake3 of a file's bytes, hex.
+pub fn hash_file(path: &Path) -> Result<String> {
+    let mut hasher = blake3::Hasher::new();
+    let file = std::fs::File::open(path).map_err(|e| ArtifactError::io(path, e))?;
+    hasher.update_reader(file).map_err(|e| ArtifactError::io(path, e))?;
+    Ok(hasher.finalize().to_hex().to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Parameter JSON is canonical: key order in the source does not change the hash.
+    #[test]
+    fn params_hash_ignores_key_order() {
+        let a: serde_json::Value = serde_json::from_str(r#"{"b":1,"a":{"y":2,"x":3}}"#).unwrap();
+        let b: serde_json::Value = serde_json::from_str(r#"{"a":{"x":3,"y":2},"b":1}"#).unwrap();
+        assert_eq!(canonical_json(&a), canonical_json(&b));
+        assert_eq!(canonical_json(&a), r#"{"a":{"x":3,"y":2},"b":1}"#);
+    }
+
+    #[test]
+    fn metadata_round_trip() {
+        let p = Provenance::new("label", "0.1.0", serde_json::json!({"min_segment_length": 12}));
+        let meta: BTreeMap<_, _> = p.to_metadata().into_iter().collect();
+        let back = Provenance::from_metadata(Path::new("x.parquet"), &meta).unwrap();
+        assert_eq!(back, p);
+        let mut broken = meta.clone();
+        broken.insert(KEY_PARAMS.into(), "{not json".into());
+        let err = Provenance::from_metadata(Path::new("x.parquet"), &broken).unwrap_err();
+        assert!(err.to_string().contains("reprise.params"), "{err}");
+    }
+}

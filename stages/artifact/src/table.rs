@@ -1,0 +1,275 @@
+//! Parquet I/O shared by every artifact kind: atomic writes with provenance, and
+//! checked reads that fail naming the file and column.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use arrow::array::{Array, ArrayRef, BooleanArray, Float64Array, Int64Array, RecordBatch, StringArray};
+use arrow::datatypes::{DataType, Field, Schema};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use parquet::arrow::ArrowWriter;
+use parquet::basic::{Compression, ZstdLevel};
+use parquet::file::metadata::KeyValue;
+use parquet::file::properties::WriterProperties;
+
+use crate::error::{ArtifactError, Result};
+use crate::provenance::{Provenance, KEY_KIND, KEY_SCHEMA_VERSION};
+
+/// An artifact kind: its name (stored under `reprise.schema`) and schema version.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Kind {
+    /// Name, e.g. `frames`.
+    pub name: &'static str,
+    /// Bumped whenever a column is added, removed, renamed or changes meaning.
+    pub version: u32,
+}
+
+/// Builds the columns of a table to write.
+#[derive(Default)]
+pub struct Columns {
+    fields: Vec<Field>,
+    arrays: Vec<ArrayRef>,
+}
+
+impl Columns {
+    /// An empty column list.
+    pub fn new() -> Self {
+        Self::default()
+    }
+    /// Appends a non-null Float64 column.
+    pub fn f64(mut self, name: &str, values: Vec<f64>) -> Self {
+        self.push(name, DataType::Float64, Arc::new(Float64Array::from(values)));
+        self
+    }
+    /// Appends a non-null Int64 column.
+    pub fn i64(mut self, name: &str, values: Vec<i64>) -> Self {
+        self.push(name, DataType::Int64, Arc::new(Int64Array::from(values)));
+        self
+    }
+    /// Appends a non-null Utf8 column.
+    pub fn str<S: AsRef<str>>(mut self, name: &str, values: &[S]) -> Self {
+        let array = StringArray::from_iter_values(values.iter().map(AsRef::as_ref));
+        self.push(name, DataType::Utf8, Arc::new(array));
+        self
+    }
+    /// Appends a non-null Boolean column.
+    pub fn bool(mut self, name: &str, values: Vec<bool>) -> Self {
+        self.push(name, DataType::Boolean, Arc::new(BooleanArray::from(values)));
+        self
+    }
+    /// Appends a nullable Float64 column (None = null).
+    pub fn f64_opt(mut self, name: &str, values: Vec<Option<f64>>) -> Self {
+        self.fields.push(Field::new(name, DataType::Float64, true));
+        self.arrays.push(Arc::new(Float64Array::from(values)));
+        self
+    }
+    fn push(&mut self, name: &str, dtype: DataType, array: ArrayRef) {
+        self.fields.push(Field::new(name, dtype, false));
+        self.arrays.push(array);
+    }
+}
+
+/// Writes `columns` as a Parquet artifact of `kind`, atomically: the data goes to a
+/// temporary file beside `path` which is renamed over `path` only once complete, so a
+/// crash or error never leaves a half-written artifact and never harms the old one.
+/// `extra` adds kind-specific metadata keys (e.g. the rig of a controls table).
+pub fn write(
+    path: &Path,
+    kind: Kind,
+    columns: Columns,
+    provenance: &Provenance,
+    extra: &[(String, String)],
+) -> Result<()> {
+    let schema = Arc::new(Schema::new(columns.fields));
+    let batch = RecordBatch::try_new(schema.clone(), columns.arrays).map_err(|e| ArtifactError::parquet(path, e))?;
+    let mut kv = vec![
+        KeyValue::new(KEY_KIND.into(), kind.name.to_string()),
+        KeyValue::new(KEY_SCHEMA_VERSION.into(), kind.version.to_string()),
+    ];
+    kv.extend(provenance.to_metadata().into_iter().chain(extra.iter().cloned()).map(|(k, v)| KeyValue::new(k, v)));
+    let props = WriterProperties::builder()
+        .set_compression(Compression::ZSTD(ZstdLevel::try_new(1).expect("level 1 is valid")))
+        .set_key_value_metadata(Some(kv))
+        .build();
+    write_atomic(path, |file| {
+        let mut writer = ArrowWriter::try_new(file, schema, Some(props)).map_err(|e| ArtifactError::parquet(path, e))?;
+        writer.write(&batch).map_err(|e| ArtifactError::parquet(path, e))?;
+        writer.close().map_err(|e| ArtifactError::parquet(path, e))?;
+        Ok(())
+    })
+}
+
+/// Runs `fill` on a temporary file in `path`'s directory, then renames it to `path`.
+/// On any error the temporary file is removed and `path` is untouched.
+pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut File) -> Result<()>) -> Result<()> {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(|e| ArtifactError::io(dir, e))?;
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let mut file = File::create(&tmp).map_err(|e| ArtifactError::io(&tmp, e))?;
+        fill(&mut file)?;
+        file.sync_all().map_err(|e| ArtifactError::io(&tmp, e))?;
+        std::fs::rename(&tmp, path).map_err(|e| ArtifactError::io(path, e))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// A Parquet artifact read into memory, with its checked columns.
+#[derive(Debug)]
+pub struct Table {
+    path: PathBuf,
+    batch: RecordBatch,
+    metadata: BTreeMap<String, String>,
+}
+
+impl Table {
+    /// Reads `path`, checking it is a `kind` artifact of the supported schema version
+    /// and that no column name repeats.
+    pub fn read(path: &Path, kind: Kind) -> Result<Self> {
+        let table = Self::read_any(path)?;
+        let found = table.metadata.get(KEY_KIND).cloned();
+        if found.as_deref() != Some(kind.name) {
+            return Err(ArtifactError::WrongKind {
+                path: path.into(),
+                expected: kind.name.into(),
+                found: found.map_or_else(|| "no `reprise.schema` metadata".into(), |k| format!("`{k}`")),
+            });
+        }
+        let version = table.metadata.get(KEY_SCHEMA_VERSION).cloned().unwrap_or_else(|| "(none)".into());
+        if version != kind.version.to_string() {
+            return Err(ArtifactError::SchemaVersion {
+                path: path.into(),
+                kind: kind.name.into(),
+                expected: kind.version,
+                found: version,
+            });
+        }
+        Ok(table)
+    }
+
+    /// Reads any Parquet file (no kind check), e.g. a user's curve table.
+    pub fn read_any(path: &Path) -> Result<Self> {
+        let file = File::open(path).map_err(|e| ArtifactError::io(path, e))?;
+        let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| ArtifactError::parquet(path, e))?;
+        let metadata = builder
+            .metadata()
+            .file_metadata()
+            .key_value_metadata()
+            .map(|kv| kv.iter().map(|e| (e.key.clone(), e.value.clone().unwrap_or_default())).collect())
+            .unwrap_or_default();
+        let schema = builder.schema().clone();
+        let reader = builder.build().map_err(|e| ArtifactError::parquet(path, e))?;
+        let batches = reader.collect::<std::result::Result<Vec<_>, _>>().map_err(|e| ArtifactError::parquet(path, e))?;
+        let batch = arrow::compute::concat_batches(&schema, &batches).map_err(|e| ArtifactError::parquet(path, e))?;
+        let mut seen = std::collections::HashSet::new();
+        for field in schema.fields() {
+            if !seen.insert(field.name()) {
+                return Err(ArtifactError::DuplicateColumn { path: path.into(), column: field.name().clone() });
+            }
+        }
+        Ok(Self { path: path.into(), batch, metadata })
+    }
+
+    /// The file this table came from.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+    /// Number of rows.
+    pub fn rows(&self) -> usize {
+        self.batch.num_rows()
+    }
+    /// Column names in file order.
+    pub fn column_names(&self) -> Vec<String> {
+        self.batch.schema().fields().iter().map(|f| f.name().clone()).collect()
+    }
+    /// The key-value metadata.
+    pub fn metadata(&self) -> &BTreeMap<String, String> {
+        &self.metadata
+    }
+    /// A metadata value, or an error naming the missing key.
+    pub fn meta(&self, key: &str) -> Result<&str> {
+        self.metadata.get(key).map(String::as_str).ok_or_else(|| ArtifactError::Metadata {
+            path: self.path.clone(),
+            key: key.into(),
+            message: "missing".into(),
+        })
+    }
+    /// The provenance record.
+    pub fn provenance(&self) -> Result<Provenance> {
+        Provenance::from_metadata(&self.path, &self.metadata)
+    }
+    /// Whether a column exists.
+    pub fn has_column(&self, name: &str) -> bool {
+        self.batch.schema().index_of(name).is_ok()
+    }
+
+    fn column(&self, name: &str) -> Result<&ArrayRef> {
+        self.batch
+            .column_by_name(name)
+            .ok_or_else(|| ArtifactError::MissingColumn { path: self.path.clone(), column: name.into() })
+    }
+
+    fn typed<'a, T: 'static>(&'a self, name: &str, expected: &str) -> Result<&'a T> {
+        let col = self.column(name)?;
+        if let Some(i) = (0..col.len()).find(|&i| col.is_null(i)) {
+            return Err(ArtifactError::Null { path: self.path.clone(), column: name.into(), row: i });
+        }
+        col.as_any().downcast_ref::<T>().ok_or_else(|| ArtifactError::ColumnType {
+            path: self.path.clone(),
+            column: name.into(),
+            expected: expected.into(),
+            found: col.data_type().to_string(),
+        })
+    }
+
+    /// A Float64 column whose every value is finite.
+    pub fn f64(&self, name: &str) -> Result<&[f64]> {
+        let values = self.typed::<Float64Array>(name, "Float64")?.values();
+        if let Some((row, &value)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(ArtifactError::NotFinite { path: self.path.clone(), column: name.into(), row, value });
+        }
+        Ok(values)
+    }
+    /// A nullable Float64 column (nulls as None; non-null values must be finite).
+    pub fn f64_opt(&self, name: &str) -> Result<Vec<Option<f64>>> {
+        let col = self.column(name)?;
+        let array = col.as_any().downcast_ref::<Float64Array>().ok_or_else(|| ArtifactError::ColumnType {
+            path: self.path.clone(),
+            column: name.into(),
+            expected: "Float64".into(),
+            found: col.data_type().to_string(),
+        })?;
+        let values: Vec<Option<f64>> = array.iter().collect();
+        if let Some((row, value)) = values.iter().enumerate().find_map(|(i, v)| v.filter(|x| !x.is_finite()).map(|x| (i, x))) {
+            return Err(ArtifactError::NotFinite { path: self.path.clone(), column: name.into(), row, value });
+        }
+        Ok(values)
+    }
+    /// An Int64 column.
+    pub fn i64(&self, name: &str) -> Result<&[i64]> {
+        Ok(self.typed::<Int64Array>(name, "Int64")?.values())
+    }
+    /// A Boolean column.
+    pub fn bool(&self, name: &str) -> Result<Vec<bool>> {
+        Ok(self.typed::<BooleanArray>(name, "Boolean")?.iter().map(|v| v.unwrap_or(false)).collect())
+    }
+    /// A Utf8 column.
+    pub fn str(&self, name: &str) -> Result<Vec<&str>> {
+        let array = self.typed::<StringArray>(name, "Utf8")?;
+        Ok((0..array.len()).map(|i| array.value(i)).collect())
+    }
+    /// The arrow type of a column (for error messages and generic readers).
+    pub fn column_type(&self, name: &str) -> Result<DataType> {
+        Ok(self.column(name)?.data_type().clone())
+    }
+    /// An error about this table that is not about one column.
+    pub fn invalid(&self, message: impl Into<String>) -> ArtifactError {
+        ArtifactError::Invalid { path: self.path.clone(), message: message.into() }
+    }
+}

@@ -1,0 +1,178 @@
+//! The runner's one error type. Every variant carries the context a user needs to act on
+//! it (file, stage, input/output name, path); [`Error::code`] maps it to the exit code
+//! from [`reprise_stagekit::exit`]. Errors are printed once, by `lib.rs`, as
+//! `reprise: error: …`.
+
+use std::io;
+use std::path::PathBuf;
+
+use reprise_stagekit::exit;
+
+/// The runner's result type.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Everything that can stop a `reprise` command.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A stage names itself (or a stage that names it) as a dependency.
+    #[error("{file}: dependency cycle: {cycle}")]
+    Cycle { file: String, cycle: String },
+
+    /// Two stages write the same output path.
+    #[error("{file}: output `{path}` is produced by both stage `{first}` and stage `{second}`")]
+    DuplicateOutput { file: String, path: String, first: String, second: String },
+
+    /// Two of a stage's inputs, outputs or parameters would be passed as the same flag.
+    #[error("{file}: stage `{stage}`: {first} and {second} would both be passed as `--{flag}`")]
+    FlagClash { file: String, stage: String, first: String, second: String, flag: String },
+
+    /// A `--force` names a stage that `--to` did not select.
+    #[error("stage `{stage}` is forced but `--to {to}` does not select it (it is not `{to}` or one of its ancestors)")]
+    ForcedNotSelected { stage: String, to: String },
+
+    /// A name (stage, input, output, parameter) is not `[a-z0-9_-]+`.
+    #[error("{file}: {what} name `{name}` is invalid: use only lowercase letters, digits, `_` and `-`")]
+    InvalidName { file: String, what: String, name: String },
+
+    /// A value in `pipeline.toml` has the wrong type or is out of place.
+    #[error("{file}: {context}: {message}")]
+    InvalidValue { file: String, context: String, message: String },
+
+    /// An input and a parameter of the same stage share a name.
+    #[error("{file}: stage `{stage}`: `{name}` is both an input and a parameter")]
+    InputParamClash { file: String, stage: String, name: String },
+
+    /// Reading a file's content for hashing failed (other than it not existing).
+    #[error("cannot read `{}`: {source}", path.display())]
+    Io { path: PathBuf, source: io::Error },
+
+    /// `inspect` was asked for a column the file does not have.
+    #[error("`{}` has no column `{column}` (columns: {available})", path.display())]
+    InspectColumn { path: PathBuf, column: String, available: String },
+
+    /// `inspect` could not decode a Parquet file's rows.
+    #[error("cannot read rows of `{}`: {message}", path.display())]
+    InspectRows { path: PathBuf, message: String },
+
+    /// Writing the lock file failed.
+    #[error("cannot write lock file `{}`: {source}", path.display())]
+    LockWrite { path: PathBuf, source: io::Error },
+
+    /// A parameter value is a table, or an array holding tables or arrays.
+    #[error("{file}: stage `{stage}`: parameter `{param}` is {found}; parameters must be scalars or arrays of scalars")]
+    NestedParam { file: String, stage: String, param: String, found: &'static str },
+
+    /// The pipeline declares no stages.
+    #[error("{file}: no stages: add a `[stage.<name>]` table")]
+    NoStages { file: String },
+
+    /// The file given to `inspect` is not Parquet.
+    #[error("`{}` is not a Parquet file: {message}", path.display())]
+    NotParquet { path: PathBuf, message: String },
+
+    /// A stage exited 0 without writing one of its declared outputs.
+    #[error("stage `{stage}` exited 0 but did not write output `{output}` ({path})")]
+    OutputNotWritten { stage: String, output: String, path: String },
+
+    /// One or more stages rejected their flags when invoked with `--check`.
+    #[error("{}", check_failures(failures))]
+    CheckFailed { failures: Vec<(String, String)>, code: i32 },
+
+    /// `pipeline.toml` (or another named file) could not be read.
+    #[error("cannot read `{}`: {source}", path.display())]
+    PipelineRead { path: PathBuf, source: io::Error },
+
+    /// `pipeline.toml` is not valid TOML.
+    #[error("{file}: {message}")]
+    PipelineSyntax { file: String, message: String },
+
+    /// An input that no stage produces does not exist.
+    #[error("stage `{stage}`: input `{input}` not found: {path} (no stage produces it)")]
+    SourceMissing { stage: String, input: String, path: String },
+
+    /// The operating system refused to start a stage binary.
+    #[error("stage `{stage}`: cannot start `{}`: {source}", bin.display())]
+    Spawn { stage: String, bin: PathBuf, source: io::Error },
+
+    /// A stage binary is nowhere to be found.
+    #[error("stage `{stage}`: binary `{bin}` not found (looked in {searched}); build the stages with `cargo build --release`, or set REPRISE_BIN_DIR")]
+    StageBinaryMissing { stage: String, bin: String, searched: String },
+
+    /// A stage exited with a non-zero code.
+    #[error("stage `{stage}` failed (exit code {code})")]
+    StageFailed { stage: String, code: i32 },
+
+    /// A stage was killed by a signal.
+    #[error("stage `{stage}` crashed: killed by signal {signal} ({name})")]
+    StageKilled { stage: String, signal: i32, name: &'static str },
+
+    /// `after` names a stage that does not exist.
+    #[error("{file}: stage `{stage}`: `after` names unknown stage `{after}`")]
+    UnknownAfter { file: String, stage: String, after: String },
+
+    /// A key `pipeline.toml` does not know.
+    #[error("{file}: {context}: unknown key `{key}`{}", hint(suggestion.as_deref(), expected))]
+    UnknownKey {
+        file: String,
+        context: String,
+        key: String,
+        suggestion: Option<String>,
+        expected: &'static [&'static str],
+    },
+
+    /// `--to`/`--force` names a stage the pipeline does not have.
+    #[error("{file}: no stage named `{stage}` (stages: {known})")]
+    UnknownStage { file: String, stage: String, known: String },
+}
+
+impl Error {
+    /// The process exit code for this error (see `reprise_stagekit::exit`).
+    #[must_use]
+    pub fn code(&self) -> i32 {
+        match self {
+            Self::Cycle { .. }
+            | Self::DuplicateOutput { .. }
+            | Self::FlagClash { .. }
+            | Self::ForcedNotSelected { .. }
+            | Self::InvalidName { .. }
+            | Self::InvalidValue { .. }
+            | Self::InputParamClash { .. }
+            | Self::InspectColumn { .. }
+            | Self::NestedParam { .. }
+            | Self::NoStages { .. }
+            | Self::PipelineRead { .. }
+            | Self::PipelineSyntax { .. }
+            | Self::UnknownAfter { .. }
+            | Self::UnknownKey { .. }
+            | Self::UnknownStage { .. } => exit::CONFIG,
+            Self::Io { .. } | Self::InspectRows { .. } | Self::NotParquet { .. } | Self::SourceMissing { .. } => {
+                exit::INPUT
+            }
+            Self::LockWrite { .. } | Self::OutputNotWritten { .. } => exit::FAILURE,
+            Self::Spawn { .. } | Self::StageBinaryMissing { .. } | Self::StageKilled { .. } => {
+                exit::STAGE_CRASHED
+            }
+            Self::CheckFailed { code, .. } | Self::StageFailed { code, .. } => *code,
+        }
+    }
+}
+
+fn hint(suggestion: Option<&str>, expected: &[&str]) -> String {
+    match suggestion {
+        Some(s) => format!(" (did you mean `{s}`?)"),
+        None if expected.is_empty() => String::new(),
+        None => {
+            let list: Vec<String> = expected.iter().map(|k| format!("`{k}`")).collect();
+            format!(" (expected one of {})", list.join(", "))
+        }
+    }
+}
+
+fn check_failures(failures: &[(String, String)]) -> String {
+    failures
+        .iter()
+        .map(|(stage, why)| format!("stage `{stage}`: parameter check failed ({why}); see its message above"))
+        .collect::<Vec<_>>()
+        .join("\nreprise: error: ")
+}
