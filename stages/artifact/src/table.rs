@@ -264,6 +264,51 @@ impl Table {
         let array = self.typed::<StringArray>(name, "Utf8")?;
         Ok((0..array.len()).map(|i| array.value(i)).collect())
     }
+    /// Any numeric column cast to f64, every value present and finite (for user tables).
+    pub fn numbers(&self, name: &str) -> Result<Vec<f64>> {
+        let col = self.column(name)?;
+        if !col.data_type().is_numeric() {
+            return Err(ArtifactError::ColumnType {
+                path: self.path.clone(),
+                column: name.into(),
+                expected: "a number".into(),
+                found: col.data_type().to_string(),
+            });
+        }
+        let cast = arrow::compute::cast(col, &DataType::Float64).map_err(|e| ArtifactError::parquet(&self.path, e))?;
+        let array = cast.as_any().downcast_ref::<Float64Array>().expect("cast to Float64 gives Float64Array");
+        array
+            .iter()
+            .enumerate()
+            .map(|(row, v)| match v {
+                None => Err(ArtifactError::Null { path: self.path.clone(), column: name.into(), row }),
+                Some(value) if !value.is_finite() => {
+                    Err(ArtifactError::NotFinite { path: self.path.clone(), column: name.into(), row, value })
+                }
+                Some(value) => Ok(value),
+            })
+            .collect()
+    }
+    /// Any string-like column as owned strings, every value present (for user tables).
+    pub fn strings(&self, name: &str) -> Result<Vec<String>> {
+        let col = self.column(name)?;
+        let cast = arrow::compute::cast(col, &DataType::Utf8).map_err(|_| ArtifactError::ColumnType {
+            path: self.path.clone(),
+            column: name.into(),
+            expected: "text".into(),
+            found: col.data_type().to_string(),
+        })?;
+        let array = cast.as_any().downcast_ref::<StringArray>().expect("cast to Utf8 gives StringArray");
+        (0..array.len())
+            .map(|row| {
+                if array.is_null(row) {
+                    Err(ArtifactError::Null { path: self.path.clone(), column: name.into(), row })
+                } else {
+                    Ok(array.value(row).to_string())
+                }
+            })
+            .collect()
+    }
     /// The arrow type of a column (for error messages and generic readers).
     pub fn column_type(&self, name: &str) -> Result<DataType> {
         Ok(self.column(name)?.data_type().clone())

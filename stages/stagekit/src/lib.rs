@@ -1,1 +1,44 @@
+//! What every reprise stage binary shares: exit codes ([`exit`]), the stage error
+//! ([`StageError`]), the `main` wrapper that prints an error once and exits with its
+//! code ([`main`]), progress bars ([`progress`]) and the parameter record that goes
+//! into provenance ([`provenance`]).
+#![warn(missing_docs)]
+
+pub mod error;
 pub mod exit;
+
+pub use error::{StageError, StageResult};
+
+use indicatif::{ProgressBar, ProgressStyle};
+use reprise_artifact::Provenance;
+use serde::Serialize;
+
+/// Runs a stage body and exits the process: 0 on success, otherwise the error's code
+/// after printing `<binary>: error: <message>` once to stderr.
+pub fn main(binary: &str, body: impl FnOnce() -> StageResult<()>) -> ! {
+    match body() {
+        Ok(()) => std::process::exit(exit::OK),
+        Err(e) => {
+            eprintln!("{binary}: error: {e}");
+            std::process::exit(e.code())
+        }
+    }
+}
+
+/// A provenance record for `stage` at this crate version, with `params` serialised.
+pub fn provenance(stage: &str, version: &str, params: &impl Serialize) -> Provenance {
+    let params = serde_json::to_value(params).expect("stage parameters serialise to JSON");
+    Provenance::new(stage, version, params)
+}
+
+/// A progress bar on stderr (hidden when stderr is not a terminal).
+pub fn progress(len: u64, message: &str) -> ProgressBar {
+    let bar = ProgressBar::new(len);
+    bar.set_style(
+        ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} {elapsed}")
+            .expect("the template is valid")
+            .progress_chars("=> "),
+    );
+    bar.set_message(message.to_string());
+    bar
+}

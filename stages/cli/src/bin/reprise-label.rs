@@ -1,0 +1,12 @@
+//! `reprise-label`: see `reprise_label` for what it does.
+use clap::Parser;
+
+fn main() {
+    let args = reprise_label::Args::parse();
+    reprise_stagekit::main("reprise-label", || {
+        if let Some(summary) = reprise_label::run(&args)? {
+            eprintln!("{summary}");
+        }
+        Ok(())
+    });
+}

@@ -1,0 +1,264 @@
+//! Curve tables in wide form (a column per control) and long form (clip, frame or time,
+//! control, value) turned into per-clip curves, then resampled to the pipeline rate.
+
+use std::collections::HashMap;
+
+use reprise_artifact::frames::{Frames, CLIP, FRAME, LABEL, SEGMENT_ID, TIME};
+use reprise_stagekit::{StageError, StageResult};
+
+use crate::source::RawTable;
+
+/// Long-form column: control name.
+pub(crate) const CONTROL: &str = "control";
+/// Long-form column: control value.
+pub(crate) const VALUE: &str = "value";
+
+/// One clip's samples at the source's own times.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct ClipCurves {
+    pub(crate) name: String,
+    /// Sample times in seconds, strictly increasing.
+    pub(crate) times: Vec<f64>,
+    /// Row-major samples × controls.
+    pub(crate) values: Vec<f64>,
+}
+
+/// Every clip of a source, over one list of controls.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Curves {
+    pub(crate) controls: Vec<String>,
+    pub(crate) clips: Vec<ClipCurves>,
+}
+
+/// How rows map to time.
+pub(crate) struct TimeBase<'a> {
+    /// Rate of the `frame` column, when times come from frame numbers.
+    pub(crate) source_fps: f64,
+    /// Clip name for tables without a `clip` column.
+    pub(crate) default_clip: &'a str,
+}
+
+/// Whether a table is in long form (it has `control` and `value` columns).
+pub(crate) fn is_long(table: &RawTable) -> bool {
+    let names = table.column_names();
+    names.iter().any(|n| n == CONTROL) && names.iter().any(|n| n == VALUE)
+}
+
+/// Clip name and time of every row.
+fn row_keys(table: &RawTable, base: &TimeBase<'_>) -> StageResult<(Vec<String>, Vec<f64>)> {
+    let names = table.column_names();
+    let has = |c: &str| names.iter().any(|n| n == c);
+    let clips = if has(CLIP) { table.strings(CLIP)? } else { vec![base.default_clip.to_string(); table.rows()] };
+    let times = if has(TIME) {
+        table.numbers(TIME)?
+    } else if has(FRAME) {
+        table.integers(FRAME)?.into_iter().map(|f| f as f64 / base.source_fps).collect()
+    } else {
+        return Err(StageError::Input(format!(
+            "{}: no `{FRAME}` or `{TIME}` column; a curve table needs one of them",
+            table.path().display()
+        )));
+    };
+    Ok((clips, times))
+}
+
+/// The column that carries time, for messages.
+fn time_column(table: &RawTable) -> &'static str {
+    if table.column_names().iter().any(|n| n == TIME) {
+        TIME
+    } else {
+        FRAME
+    }
+}
+
+/// Reads a wide table: `clip`? , `frame` and/or `time`, then one numeric column per control.
+pub(crate) fn wide(table: &RawTable, base: &TimeBase<'_>) -> StageResult<Curves> {
+    let names = table.column_names();
+    if let Some(reserved) = names.iter().find(|n| [LABEL, SEGMENT_ID].contains(&n.as_str())) {
+        return Err(StageError::Input(format!(
+            "{}: column `{reserved}` is reserved for labeled frames and cannot be a control",
+            table.path().display()
+        )));
+    }
+    let controls: Vec<String> = names.iter().filter(|n| ![CLIP, FRAME, TIME].contains(&n.as_str())).cloned().collect();
+    if controls.is_empty() {
+        return Err(StageError::Input(format!("{}: no control columns", table.path().display())));
+    }
+    let (clips, times) = row_keys(table, base)?;
+    let columns = controls.iter().map(|c| table.numbers(c)).collect::<StageResult<Vec<_>>>()?;
+    let mut order: Vec<String> = Vec::new();
+    let mut rows_of: HashMap<&str, Vec<usize>> = HashMap::new();
+    for (row, clip) in clips.iter().enumerate() {
+        let rows = rows_of.entry(clip).or_default();
+        if rows.is_empty() {
+            order.push(clip.clone());
+        }
+        if let Some(&prev) = rows.last() {
+            let what = time_column(table);
+            if times[row] == times[prev] {
+                return Err(table.error(row, what, &format!("clip `{clip}`: {what} repeats {}", table.at(prev))));
+            }
+            if times[row] < times[prev] {
+                return Err(table.error(row, what, &format!("clip `{clip}`: {what} goes back from {}", table.at(prev))));
+            }
+        }
+        rows.push(row);
+    }
+    let clips = order
+        .into_iter()
+        .map(|name| {
+            let rows = &rows_of[name.as_str()];
+            let values = rows.iter().flat_map(|&r| columns.iter().map(move |col| col[r])).collect();
+            ClipCurves { times: rows.iter().map(|&r| times[r]).collect(), values, name }
+        })
+        .collect();
+    Ok(Curves { controls, clips })
+}
+
+/// Reads a long table: `clip`?, `frame` or `time`, `control`, `value`. Every control
+/// must have a value at every time of its clip, exactly once.
+pub(crate) fn long(table: &RawTable, base: &TimeBase<'_>) -> StageResult<Curves> {
+    let names = table.column_names();
+    if let Some(unknown) = names.iter().find(|n| ![CLIP, FRAME, TIME, CONTROL, VALUE].contains(&n.as_str())) {
+        return Err(StageError::Input(format!(
+            "{}: unknown column `{unknown}`; a long table has the columns clip (optional), frame or time, control, value",
+            table.path().display()
+        )));
+    }
+    let (clips, times) = row_keys(table, base)?;
+    let control_of_row = table.strings(CONTROL)?;
+    let value = table.numbers(VALUE)?;
+    let mut controls: Vec<String> = Vec::new();
+    let mut control_index: HashMap<&str, usize> = HashMap::new();
+    for c in &control_of_row {
+        if !control_index.contains_key(c.as_str()) {
+            control_index.insert(c, controls.len());
+            controls.push(c.clone());
+        }
+    }
+    // Per clip, in first-appearance order: the sorted distinct times, then a filled grid.
+    let mut order: Vec<&str> = Vec::new();
+    let mut rows_of: HashMap<&str, Vec<usize>> = HashMap::new();
+    for (row, clip) in clips.iter().enumerate() {
+        rows_of.entry(clip).or_insert_with(|| {
+            order.push(clip);
+            Vec::new()
+        });
+        rows_of.get_mut(clip.as_str()).expect("inserted above").push(row);
+    }
+    let n = controls.len();
+    let mut out = Vec::new();
+    for name in order {
+        let rows = &rows_of[name];
+        let mut distinct: Vec<f64> = rows.iter().map(|&r| times[r]).collect();
+        distinct.sort_by(f64::total_cmp);
+        distinct.dedup();
+        let mut cell: Vec<Option<usize>> = vec![None; distinct.len() * n];
+        for &row in rows {
+            let t = distinct.binary_search_by(|x| x.total_cmp(&times[row])).expect("time is among the distinct times");
+            let slot = &mut cell[t * n + control_index[control_of_row[row].as_str()]];
+            if let Some(first) = *slot {
+                return Err(table.error(
+                    row,
+                    CONTROL,
+                    &format!("clip `{name}`: control `{}` at time {} s repeats {}", control_of_row[row], times[row], table.at(first)),
+                ));
+            }
+            *slot = Some(row);
+        }
+        if let Some(missing) = cell.iter().position(Option::is_none) {
+            let (t, c) = (missing / n, missing % n);
+            return Err(StageError::Input(format!(
+                "{}: clip `{name}`, time {} s: control `{}` is missing (other controls have a value there)",
+                table.path().display(),
+                distinct[t],
+                controls[c]
+            )));
+        }
+        let values = cell.into_iter().map(|r| value[r.expect("checked above")]).collect();
+        out.push(ClipCurves { name: name.to_string(), times: distinct, values });
+    }
+    Ok(Curves { controls, clips: out })
+}
+
+/// The sampling rate a clip was given at: the median of `1/Δt`, or `fallback` for a
+/// single sample.
+pub(crate) fn source_rate(times: &[f64], fallback: f64) -> f64 {
+    let mut rates: Vec<f64> = times.windows(2).map(|w| 1.0 / (w[1] - w[0])).collect();
+    if rates.is_empty() {
+        return fallback;
+    }
+    rates.sort_by(f64::total_cmp);
+    rates[rates.len() / 2]
+}
+
+/// Resamples every clip onto `t_k = t_0 + k / fps`, `k = 0 … ⌊(t_end − t_0)·fps⌋`, by
+/// linear interpolation between the bracketing samples (exact copies where the source
+/// already lies on the grid), and restarts time at 0 for each clip.
+pub(crate) fn resample(curves: &Curves, fps: f64) -> Frames {
+    let n = curves.controls.len();
+    let mut frames =
+        Frames { fps, controls: curves.controls.clone(), clip: Vec::new(), frame: Vec::new(), time: Vec::new(), values: Vec::new() };
+    for clip in &curves.clips {
+        let t0 = clip.times[0];
+        let span = clip.times[clip.times.len() - 1] - t0;
+        let count = (span * fps + 1e-6).floor() as usize + 1;
+        let mut j = 0;
+        for k in 0..count {
+            let t = t0 + k as f64 / fps;
+            while j + 1 < clip.times.len() && clip.times[j + 1] <= t + 1e-9 {
+                j += 1;
+            }
+            let row = |i: usize| &clip.values[i * n..(i + 1) * n];
+            if j + 1 == clip.times.len() || (clip.times[j] - t).abs() <= 1e-9 {
+                frames.values.extend_from_slice(row(j));
+            } else {
+                let a = (t - clip.times[j]) / (clip.times[j + 1] - clip.times[j]);
+                frames.values.extend(row(j).iter().zip(row(j + 1)).map(|(x, y)| x + a * (y - x)));
+            }
+            frames.clip.push(clip.name.clone());
+            frames.frame.push(k as i64);
+            frames.time.push(k as f64 / fps);
+        }
+    }
+    frames
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn clip(times: Vec<f64>, values: Vec<f64>) -> Curves {
+        Curves { controls: vec!["a".into()], clips: vec![ClipCurves { name: "c".into(), times, values }] }
+    }
+
+    /// Samples on the target grid come through unchanged.
+    #[test]
+    fn resampling_on_the_grid_is_identity() {
+        let c = clip(vec![0.0, 0.5, 1.0], vec![1.0, 2.0, 4.0]);
+        let f = resample(&c, 2.0);
+        assert_eq!(f.values, vec![1.0, 2.0, 4.0]);
+        assert_eq!(f.frame, vec![0, 1, 2]);
+    }
+
+    /// 60 fps samples of a linear ramp resampled to 24 fps stay on the ramp.
+    #[test]
+    fn resampling_interpolates_linearly() {
+        let times: Vec<f64> = (0..=60).map(|i| f64::from(i) / 60.0).collect();
+        let values = times.iter().map(|t| 3.0 * t + 1.0).collect();
+        let f = resample(&clip(times, values), 24.0);
+        assert_eq!(f.rows(), 25);
+        for (t, v) in f.time.iter().zip(&f.values) {
+            assert!((v - (3.0 * t + 1.0)).abs() < 1e-12, "{t} {v}");
+        }
+        assert!((source_rate(&[0.0, 1.0 / 60.0, 2.0 / 60.0], 24.0) - 60.0).abs() < 1e-9);
+    }
+
+    /// A gap in the frames is filled by interpolation; time restarts at zero.
+    #[test]
+    fn resampling_fills_gaps_and_restarts_time() {
+        let f = resample(&clip(vec![10.0, 10.75], vec![0.0, 3.0]), 4.0);
+        assert_eq!(f.values, vec![0.0, 1.0, 2.0, 3.0]);
+        assert_eq!(f.time, vec![0.0, 0.25, 0.5, 0.75]);
+    }
+}

@@ -1,0 +1,180 @@
+//! The ingest stage: turns a source into the three tables every later stage starts
+//! from — `frames` (one row per frame, one column per control), `controls` and `clips`.
+//!
+//! Sources: the built-in dragon-face generator (`--generate dragon-face`), or a curve
+//! table in CSV or Parquet (`--curves FILE`), wide (a column per control) or long
+//! (`clip, frame|time, control, value`), resampled to `--fps`.
+
+mod curves;
+mod dragon;
+mod source;
+
+use std::path::PathBuf;
+
+use clap::{Parser, ValueEnum};
+use reprise_artifact::clips::{self, Clip};
+use reprise_artifact::controls::{Control, Controls, RigRef};
+use reprise_artifact::frames::{Frames, RESERVED};
+use reprise_stagekit::{StageError, StageResult};
+use serde::Serialize;
+
+/// Which built-in generator to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Generator {
+    /// The film-style creature face rig and its 8-label corpus (datasets/dragon-face).
+    DragonFace,
+}
+
+/// Layout of a curve table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Layout {
+    /// Long if the table has `control` and `value` columns, else wide.
+    Auto,
+    /// A column per control.
+    Wide,
+    /// One row per (clip, frame, control).
+    Long,
+}
+
+/// `reprise-ingest`: sources to frames, controls and clips.
+#[derive(Debug, Clone, Parser, Serialize)]
+#[command(name = "reprise-ingest", version, about)]
+pub struct Args {
+    /// Input: a curve table (.csv or .parquet). Give this or --generate.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub curves: Option<PathBuf>,
+    /// Run a built-in generator instead of reading a file.
+    #[arg(long, value_enum)]
+    pub generate: Option<Generator>,
+    /// Generator seed (the corpus and rig are deterministic in it).
+    #[arg(long, default_value_t = 7)]
+    pub seed: u64,
+    /// Curve table layout.
+    #[arg(long, value_enum, default_value_t = Layout::Auto)]
+    pub layout: Layout,
+    /// Pipeline frame rate: every clip is resampled to it (frames per second).
+    #[arg(long, default_value_t = 24.0)]
+    pub fps: f64,
+    /// Rate of a table's `frame` column when it has no `time` column (default: --fps).
+    #[arg(long)]
+    pub source_fps: Option<f64>,
+    /// Clip name for a table without a `clip` column (default: the file's stem).
+    #[arg(long)]
+    pub clip: Option<String>,
+    /// Output: the frame table.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub frames: PathBuf,
+    /// Output: the controls table.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub controls: PathBuf,
+    /// Output: the clips table.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub clips: PathBuf,
+    /// Only validate the flags and exit.
+    #[arg(long)]
+    #[serde(skip)]
+    pub check: bool,
+}
+
+impl Args {
+    fn validate(&self) -> StageResult<()> {
+        match (&self.curves, self.generate) {
+            (Some(_), Some(_)) => return Err(StageError::Config("give either --curves or --generate, not both".into())),
+            (None, None) => return Err(StageError::Config("nothing to ingest: give --curves FILE or --generate dragon-face".into())),
+            _ => {}
+        }
+        for (flag, rate) in [("--fps", Some(self.fps)), ("--source-fps", self.source_fps)] {
+            if let Some(r) = rate.filter(|r| !(r.is_finite() && *r > 0.0)) {
+                return Err(StageError::Config(format!("{flag} must be a positive number of frames per second, got {r}")));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What ingest produced.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Summary {
+    /// Frames written.
+    pub frames: usize,
+    /// Controls.
+    pub controls: usize,
+    /// Clips.
+    pub clips: usize,
+}
+
+/// Runs the stage (or only validates, with `--check`).
+pub fn run(args: &Args) -> StageResult<Option<Summary>> {
+    args.validate()?;
+    if args.check {
+        return Ok(None);
+    }
+    let mut provenance = reprise_stagekit::provenance("ingest", env!("CARGO_PKG_VERSION"), args);
+    let (frames, controls, clips) = match (&args.curves, args.generate) {
+        (_, Some(Generator::DragonFace)) => dragon::generate(args.seed),
+        (Some(path), None) => {
+            provenance = provenance.with_input("curves", path)?;
+            from_table(args, path)?
+        }
+        (None, None) => unreachable!("validated above"),
+    };
+    frames.write(&args.frames, &provenance)?;
+    controls.write(&args.controls, &provenance)?;
+    clips::write(&args.clips, &clips, &provenance)?;
+    Ok(Some(Summary { frames: frames.rows(), controls: controls.controls.len(), clips: clips.len() }))
+}
+
+fn from_table(args: &Args, path: &std::path::Path) -> StageResult<(Frames, Controls, Vec<Clip>)> {
+    let table = source::RawTable::read(path)?;
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let base = curves::TimeBase {
+        source_fps: args.source_fps.unwrap_or(args.fps),
+        default_clip: args.clip.as_deref().unwrap_or(&stem),
+    };
+    let long = match args.layout {
+        Layout::Auto => curves::is_long(&table),
+        Layout::Long => true,
+        Layout::Wide => false,
+    };
+    let curves = if long { curves::long(&table, &base)? } else { curves::wide(&table, &base)? };
+    if let Some(bad) = curves.controls.iter().find(|c| RESERVED.contains(&c.as_str())) {
+        return Err(StageError::Input(format!("{}: control `{bad}` uses a reserved column name", path.display())));
+    }
+    if table.rows() == 0 {
+        return Err(StageError::Input(format!("{}: the table has no rows", path.display())));
+    }
+    let frames = curves::resample(&curves, args.fps);
+    let clips = curves
+        .clips
+        .iter()
+        .map(|c| Clip {
+            clip: c.name.clone(),
+            frames: frames.clip.iter().filter(|n| **n == c.name).count() as i64,
+            fps: args.fps,
+            source: path.display().to_string(),
+            source_fps: curves::source_rate(&c.times, base.source_fps),
+        })
+        .collect();
+    let controls = (0..frames.controls.len())
+        .map(|c| {
+            let column = frames.column(c);
+            let (min, max) = column.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+            Control {
+                name: frames.controls[c].clone(),
+                group: "default".into(),
+                unit: "unknown".into(),
+                default: 0.0,
+                min,
+                max,
+                animated: dragon::moves(&frames, c),
+            }
+        })
+        .collect();
+    Ok((frames, Controls { controls, rig: RigRef::None }, clips))
+}
