@@ -94,7 +94,8 @@ pub fn write(
         .set_key_value_metadata(Some(kv))
         .build();
     write_atomic(path, |file| {
-        let mut writer = ArrowWriter::try_new(file, schema, Some(props)).map_err(|e| ArtifactError::parquet(path, e))?;
+        let mut writer =
+            ArrowWriter::try_new(file, schema, Some(props)).map_err(|e| ArtifactError::parquet(path, e))?;
         writer.write(&batch).map_err(|e| ArtifactError::parquet(path, e))?;
         writer.close().map_err(|e| ArtifactError::parquet(path, e))?;
         Ok(())
@@ -165,7 +166,8 @@ impl Table {
             .unwrap_or_default();
         let schema = builder.schema().clone();
         let reader = builder.build().map_err(|e| ArtifactError::parquet(path, e))?;
-        let batches = reader.collect::<std::result::Result<Vec<_>, _>>().map_err(|e| ArtifactError::parquet(path, e))?;
+        let batches =
+            reader.collect::<std::result::Result<Vec<_>, _>>().map_err(|e| ArtifactError::parquet(path, e))?;
         let batch = arrow::compute::concat_batches(&schema, &batches).map_err(|e| ArtifactError::parquet(path, e))?;
         let mut seen = std::collections::HashSet::new();
         for field in schema.fields() {
@@ -246,7 +248,9 @@ impl Table {
             found: col.data_type().to_string(),
         })?;
         let values: Vec<Option<f64>> = array.iter().collect();
-        if let Some((row, value)) = values.iter().enumerate().find_map(|(i, v)| v.filter(|x| !x.is_finite()).map(|x| (i, x))) {
+        if let Some((row, value)) =
+            values.iter().enumerate().find_map(|(i, v)| v.filter(|x| !x.is_finite()).map(|x| (i, x)))
+        {
             return Err(ArtifactError::NotFinite { path: self.path.clone(), column: name.into(), row, value });
         }
         Ok(values)

@@ -99,7 +99,11 @@ pub(crate) fn wide(table: &RawTable, base: &TimeBase<'_>) -> StageResult<Curves>
                 return Err(table.error(row, what, &format!("clip `{clip}`: {what} repeats {}", table.at(prev))));
             }
             if times[row] < times[prev] {
-                return Err(table.error(row, what, &format!("clip `{clip}`: {what} goes back from {}", table.at(prev))));
+                return Err(table.error(
+                    row,
+                    what,
+                    &format!("clip `{clip}`: {what} goes back from {}", table.at(prev)),
+                ));
             }
         }
         rows.push(row);
@@ -161,7 +165,12 @@ pub(crate) fn long(table: &RawTable, base: &TimeBase<'_>) -> StageResult<Curves>
                 return Err(table.error(
                     row,
                     CONTROL,
-                    &format!("clip `{name}`: control `{}` at time {} s repeats {}", control_of_row[row], times[row], table.at(first)),
+                    &format!(
+                        "clip `{name}`: control `{}` at time {} s repeats {}",
+                        control_of_row[row],
+                        times[row],
+                        table.at(first)
+                    ),
                 ));
             }
             *slot = Some(row);
@@ -197,8 +206,14 @@ pub(crate) fn source_rate(times: &[f64], fallback: f64) -> f64 {
 /// already lies on the grid), and restarts time at 0 for each clip.
 pub(crate) fn resample(curves: &Curves, fps: f64) -> Frames {
     let n = curves.controls.len();
-    let mut frames =
-        Frames { fps, controls: curves.controls.clone(), clip: Vec::new(), frame: Vec::new(), time: Vec::new(), values: Vec::new() };
+    let mut frames = Frames {
+        fps,
+        controls: curves.controls.clone(),
+        clip: Vec::new(),
+        frame: Vec::new(),
+        time: Vec::new(),
+        values: Vec::new(),
+    };
     for clip in &curves.clips {
         let t0 = clip.times[0];
         let span = clip.times[clip.times.len() - 1] - t0;

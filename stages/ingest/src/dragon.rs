@@ -13,8 +13,14 @@ pub(crate) fn generate(seed: u64) -> (Frames, Controls, Vec<Clip>) {
     let corpus = generate_corpus(&rig, seed);
     let names: Vec<String> = rig.controls().iter().map(|c| c.name.clone()).collect();
     let n = names.len();
-    let mut frames =
-        Frames { fps: corpus.fps, controls: names, clip: Vec::new(), frame: Vec::new(), time: Vec::new(), values: Vec::new() };
+    let mut frames = Frames {
+        fps: corpus.fps,
+        controls: names,
+        clip: Vec::new(),
+        frame: Vec::new(),
+        time: Vec::new(),
+        values: Vec::new(),
+    };
     let mut clips = Vec::new();
     for take in &corpus.takes {
         for f in 0..take.frame_count {

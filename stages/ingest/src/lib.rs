@@ -85,13 +85,21 @@ pub struct Args {
 impl Args {
     fn validate(&self) -> StageResult<()> {
         match (&self.curves, self.generate) {
-            (Some(_), Some(_)) => return Err(StageError::Config("give either --curves or --generate, not both".into())),
-            (None, None) => return Err(StageError::Config("nothing to ingest: give --curves FILE or --generate dragon-face".into())),
+            (Some(_), Some(_)) => {
+                return Err(StageError::Config("give either --curves or --generate, not both".into()))
+            }
+            (None, None) => {
+                return Err(StageError::Config(
+                    "nothing to ingest: give --curves FILE or --generate dragon-face".into(),
+                ))
+            }
             _ => {}
         }
         for (flag, rate) in [("--fps", Some(self.fps)), ("--source-fps", self.source_fps)] {
             if let Some(r) = rate.filter(|r| !(r.is_finite() && *r > 0.0)) {
-                return Err(StageError::Config(format!("{flag} must be a positive number of frames per second, got {r}")));
+                return Err(StageError::Config(format!(
+                    "{flag} must be a positive number of frames per second, got {r}"
+                )));
             }
         }
         Ok(())
@@ -164,7 +172,8 @@ fn from_table(args: &Args, path: &std::path::Path) -> StageResult<(Frames, Contr
     let controls = (0..frames.controls.len())
         .map(|c| {
             let column = frames.column(c);
-            let (min, max) = column.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+            let (min, max) =
+                column.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
             Control {
                 name: frames.controls[c].clone(),
                 group: "default".into(),
@@ -178,3 +187,6 @@ fn from_table(args: &Args, path: &std::path::Path) -> StageResult<(Frames, Contr
         .collect();
     Ok((frames, Controls { controls, rig: RigRef::None }, clips))
 }
+
+#[cfg(test)]
+mod tests;

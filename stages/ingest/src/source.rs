@@ -23,7 +23,10 @@ impl RawTable {
                 let table = Table::read_any(path)?;
                 Ok(Self::Parquet { table })
             }
-            _ => Err(StageError::Input(format!("{}: unknown curve table format; expected a .csv or .parquet file", path.display()))),
+            _ => Err(StageError::Input(format!(
+                "{}: unknown curve table format; expected a .csv or .parquet file",
+                path.display()
+            ))),
         }
     }
 
@@ -33,7 +36,11 @@ impl RawTable {
         let headers: Vec<String> = reader.headers().map_err(|e| io(&e))?.iter().map(String::from).collect();
         for (i, h) in headers.iter().enumerate() {
             if h.is_empty() {
-                return Err(StageError::Input(format!("{}: line 1, column {}: empty column name", path.display(), i + 1)));
+                return Err(StageError::Input(format!(
+                    "{}: line 1, column {}: empty column name",
+                    path.display(),
+                    i + 1
+                )));
             }
             if let Some(j) = headers[..i].iter().position(|g| g == h) {
                 return Err(StageError::Input(format!(
@@ -90,7 +97,9 @@ impl RawTable {
 
     fn index(&self, column: &str) -> usize {
         match self {
-            Self::Csv { headers, .. } => headers.iter().position(|h| h == column).expect("caller checked the column exists"),
+            Self::Csv { headers, .. } => {
+                headers.iter().position(|h| h == column).expect("caller checked the column exists")
+            }
             Self::Parquet { .. } => 0,
         }
     }

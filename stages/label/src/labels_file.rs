@@ -167,14 +167,25 @@ impl LabelsFile {
         for (i, r) in file.range.into_iter().enumerate() {
             let origin = format!("range {}", i + 1);
             let range = range(path, &origin, Some(r.start), Some(r.end))?;
-            entries.push(Entry { origin, target: Target::Clip(r.clip), range, label: Some(r.label), reason: String::new() });
+            entries.push(Entry {
+                origin,
+                target: Target::Clip(r.clip),
+                range,
+                label: Some(r.label),
+                reason: String::new(),
+            });
         }
         for (i, x) in file.exclude.into_iter().enumerate() {
             let origin = format!("exclude {}", i + 1);
             let target = match (x.clip, x.pattern) {
                 (Some(clip), None) => Target::Clip(clip),
                 (None, Some(p)) => Target::Pattern(glob(path, &origin, &p)?),
-                _ => return Err(StageError::Input(format!("{}: {origin}: give exactly one of `clip` or `pattern`", path.display()))),
+                _ => {
+                    return Err(StageError::Input(format!(
+                        "{}: {origin}: give exactly one of `clip` or `pattern`",
+                        path.display()
+                    )))
+                }
             };
             let range = range(path, &origin, x.start, x.end)?;
             entries.push(Entry { origin, target, range, label: None, reason: x.reason });
@@ -205,7 +216,9 @@ impl LabelsFile {
                 if c.is_empty() {
                     return Ok(None);
                 }
-                c.parse().map(Some).map_err(|_| err(format!("{origin}, column `{}`: `{c}` is not a frame number", headers[i])))
+                c.parse()
+                    .map(Some)
+                    .map_err(|_| err(format!("{origin}, column `{}`: `{c}` is not a frame number", headers[i])))
             };
             let range = range(path, &origin, frame(start)?, frame(end)?)?;
             let name = cell(label);

@@ -93,7 +93,14 @@ impl std::fmt::Display for Summary {
             writeln!(f, "{:<14} {:>8} {:>7} {:>8.1}", l.label, l.segments, l.frames, l.frames as f64 / self.fps)?;
         }
         let total: usize = self.labels.iter().map(|l| l.frames).sum();
-        writeln!(f, "{:<14} {:>8} {:>7} {:>8.1}", "total", self.labels.iter().map(|l| l.segments).sum::<usize>(), total, total as f64 / self.fps)?;
+        writeln!(
+            f,
+            "{:<14} {:>8} {:>7} {:>8.1}",
+            "total",
+            self.labels.iter().map(|l| l.segments).sum::<usize>(),
+            total,
+            total as f64 / self.fps
+        )?;
         for line in &self.exclusions {
             writeln!(f, "excluded {line}")?;
         }
@@ -112,7 +119,9 @@ impl std::fmt::Display for Summary {
 impl Args {
     fn validate(&self) -> StageResult<()> {
         if !self.mask_group.is_empty() && self.controls.is_none() {
-            return Err(StageError::Config("--mask-group needs --controls (the controls table names the groups)".into()));
+            return Err(StageError::Config(
+                "--mask-group needs --controls (the controls table names the groups)".into(),
+            ));
         }
         if self.min_segment_length == 0 {
             return Err(StageError::Config("--min-segment-length must be at least 1".into()));
@@ -141,7 +150,10 @@ fn masked(args: &Args, frames: &Frames) -> StageResult<Vec<String>> {
             let hits: Vec<&str> =
                 controls.controls.iter().filter(|c| &c.group == group).map(|c| c.name.as_str()).collect();
             if hits.is_empty() {
-                return Err(StageError::Config(format!("--mask-group `{group}`: no control of {} is in that group", path.display())));
+                return Err(StageError::Config(format!(
+                    "--mask-group `{group}`: no control of {} is in that group",
+                    path.display()
+                )));
             }
             out.extend(hits.into_iter().map(String::from));
         }
@@ -176,7 +188,11 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         .iter()
         .map(|l| {
             let mine: Vec<&Segment> = assignment.segments.iter().filter(|s| &s.label == l).collect();
-            LabelCount { label: l.clone(), segments: mine.len(), frames: mine.iter().map(|s| s.frames() as usize).sum() }
+            LabelCount {
+                label: l.clone(),
+                segments: mine.len(),
+                frames: mine.iter().map(|s| s.frames() as usize).sum(),
+            }
         })
         .collect();
     let exclusions = labels_file_exclusions(&labels_file);

@@ -10,7 +10,14 @@ use crate::{run, Args};
 
 /// Clips `walk_a` (frames 0..=9), `walk_b` (0..=9), `run_a` (0..=4); two controls.
 fn write_frames(dir: &Path) -> std::path::PathBuf {
-    let mut f = Frames { fps: 24.0, controls: vec!["jaw".into(), "eye_L".into()], clip: vec![], frame: vec![], time: vec![], values: vec![] };
+    let mut f = Frames {
+        fps: 24.0,
+        controls: vec!["jaw".into(), "eye_L".into()],
+        clip: vec![],
+        frame: vec![],
+        time: vec![],
+        values: vec![],
+    };
     for (clip, n) in [("walk_a", 10), ("walk_b", 10), ("run_a", 5)] {
         for i in 0..n {
             f.clip.push(clip.into());
@@ -66,8 +73,15 @@ fn rules_ranges_and_exclusions_make_segments() {
     a.mask = vec!["eye_*".into()];
     let summary = run(&a).unwrap().unwrap();
     let segs = segments::read(&a.segments).unwrap();
-    let got: Vec<(String, String, i64, i64)> = segs.iter().map(|s| (s.label.clone(), s.clip.clone(), s.start, s.end)).collect();
-    let want = [("walk", "walk_a", 0, 2), ("walk", "walk_a", 5, 9), ("walk", "walk_b", 0, 5), ("run", "walk_b", 6, 9), ("run", "run_a", 0, 4)];
+    let got: Vec<(String, String, i64, i64)> =
+        segs.iter().map(|s| (s.label.clone(), s.clip.clone(), s.start, s.end)).collect();
+    let want = [
+        ("walk", "walk_a", 0, 2),
+        ("walk", "walk_a", 5, 9),
+        ("walk", "walk_b", 0, 5),
+        ("run", "walk_b", 6, 9),
+        ("run", "run_a", 0, 4),
+    ];
     assert_eq!(got, want.map(|(l, c, s, e)| (l.into(), c.into(), s, e)).to_vec());
     assert_eq!(summary.excluded_frames, 2);
     assert_eq!(summary.labels[0].frames, 14);

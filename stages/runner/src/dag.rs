@@ -66,6 +66,18 @@ impl Dag {
         self.incoming[b].iter().map(|(a, _)| *a).collect()
     }
 
+    /// The names of `b`'s inputs that some stage produces (the rest are source files).
+    #[must_use]
+    pub fn produced_inputs(&self, b: usize) -> BTreeSet<&str> {
+        self.incoming[b]
+            .iter()
+            .filter_map(|(_, edge)| match edge {
+                Edge::Artifact { input, .. } => Some(input.as_str()),
+                Edge::After => None,
+            })
+            .collect()
+    }
+
     /// Stage `b` and every stage it depends on, directly or not.
     #[must_use]
     pub fn with_ancestors(&self, b: usize) -> BTreeSet<usize> {
@@ -191,7 +203,8 @@ mod tests {
 
     #[test]
     fn ancestors() {
-        let stages = "[stage.a]\nbin = \"a\"\noutputs.o = \"a\"\n[stage.b]\nbin = \"b\"\ninputs.i = \"a\"\noutputs.o = \"b\"\n\
+        let stages =
+            "[stage.a]\nbin = \"a\"\noutputs.o = \"a\"\n[stage.b]\nbin = \"b\"\ninputs.i = \"a\"\noutputs.o = \"b\"\n\
                       [stage.c]\nbin = \"c\"\ninputs.i = \"b\"\n[stage.d]\nbin = \"d\"\ninputs.i = \"a\"\n";
         let (_, d) = dag(stages).unwrap();
         assert_eq!(d.with_ancestors(2), BTreeSet::from([0, 1, 2]));

@@ -60,7 +60,9 @@ pub enum Error {
     LockWrite { path: PathBuf, source: io::Error },
 
     /// A parameter value is a table, or an array holding tables or arrays.
-    #[error("{file}: stage `{stage}`: parameter `{param}` is {found}; parameters must be scalars or arrays of scalars")]
+    #[error(
+        "{file}: stage `{stage}`: parameter `{param}` is {found}; parameters must be scalars or arrays of scalars"
+    )]
     NestedParam { file: String, stage: String, param: String, found: &'static str },
 
     /// The pipeline declares no stages.
@@ -150,9 +152,7 @@ impl Error {
                 exit::INPUT
             }
             Self::LockWrite { .. } | Self::OutputNotWritten { .. } => exit::FAILURE,
-            Self::Spawn { .. } | Self::StageBinaryMissing { .. } | Self::StageKilled { .. } => {
-                exit::STAGE_CRASHED
-            }
+            Self::Spawn { .. } | Self::StageBinaryMissing { .. } | Self::StageKilled { .. } => exit::STAGE_CRASHED,
             Self::CheckFailed { code, .. } | Self::StageFailed { code, .. } => *code,
         }
     }

@@ -1,8 +1,156 @@
-//! The `reprise` runner (being written).
-use std::ffi::OsString;
+//! The `reprise` runner: reads `pipeline.toml`, runs the stage binaries as separate
+//! processes in dependency order, and skips every stage whose binary, parameters and input
+//! contents are unchanged since its last successful run (recorded in
+//! `<artifacts>/reprise.lock`, in the spirit of DVC's lock file).
+//!
+//! Map of the crate, in the order a `reprise run` goes through it:
+//!
+//! | module | owns |
+//! |---|---|
+//! | [`cli`] | the clap command line |
+//! | [`pipeline`] | `pipeline.toml`: parsing and validation |
+//! | [`paths`] | normalising and resolving declared paths |
+//! | [`params`] | parameter values and their canonical forms |
+//! | [`dag`] | dependencies, cycles, run order |
+//! | [`locate`] | finding stage binaries |
+//! | [`hash`] | blake3 of files, memoised per command |
+//! | [`key`] | the cache key |
+//! | [`lock`] | the lock file |
+//! | [`cache`] | freshness and the reasons a stage is stale |
+//! | [`exec`] | invoking a stage process |
+//! | [`run`], [`status`], [`dag_view`], [`inspect`] | the subcommands |
+//! | [`error`] | the error type and its exit codes |
+//!
+//! There is no global state: [`main_with_args`] can be called any number of times in one
+//! process.
 
-/// Entry point of the `reprise` binary; returns the process exit code.
-pub fn main_with_args(_args: impl IntoIterator<Item = OsString>) -> i32 {
-    eprintln!("reprise: the runner is not built yet");
-    reprise_stagekit::exit::FAILURE
+pub mod cache;
+pub mod cli;
+pub mod clock;
+pub mod dag;
+pub mod dag_view;
+pub mod error;
+pub mod exec;
+pub mod hash;
+pub mod inspect;
+pub mod key;
+pub mod locate;
+pub mod lock;
+pub mod params;
+pub mod paths;
+pub mod pipeline;
+pub mod run;
+pub mod status;
+
+use std::ffi::OsString;
+use std::io::Write;
+use std::path::Path;
+
+use clap::Parser;
+use reprise_stagekit::exit;
+
+pub use error::{Error, Result};
+
+use crate::cli::{Cli, Command};
+use crate::dag::Dag;
+use crate::locate::BinDirs;
+use crate::pipeline::Pipeline;
+
+/// Entry point of the `reprise` binary: parses `args` (program name first), runs the
+/// command, prints any error once to stderr, and returns the process exit code.
+pub fn main_with_args(args: impl IntoIterator<Item = OsString>) -> i32 {
+    main_with_io(args, &mut std::io::stdout().lock(), &mut std::io::stderr())
+}
+
+/// As [`main_with_args`], writing the runner's own output to `stdout` and `stderr` (stage
+/// processes still inherit the real ones). Bare stage binary names are looked up with the
+/// process environment (`REPRISE_BIN_DIR`, the current executable's directory, `PATH`).
+pub fn main_with_io(args: impl IntoIterator<Item = OsString>, stdout: &mut dyn Write, stderr: &mut dyn Write) -> i32 {
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e) => {
+            let text = e.render().to_string();
+            return if e.use_stderr() {
+                let _ = write!(stderr, "{text}");
+                exit::CONFIG
+            } else {
+                let _ = write!(stdout, "{text}");
+                exit::OK
+            };
+        }
+    };
+    let dirs = BinDirs::from_env();
+    let result = match &cli.command {
+        Command::Run(args) => {
+            let _ = stdout.flush();
+            run::run(args, &dirs, stderr)
+        }
+        Command::Status(args) => status::status(&args.pipeline, &dirs, stdout, stderr),
+        Command::Dag(args) => load(&args.pipeline.pipeline).map(|(p, d)| {
+            let _ = write!(stdout, "{}", dag_view::render(&p, &d, args.format));
+        }),
+        Command::Inspect(args) => inspect::inspect(args).map(|text| {
+            let _ = write!(stdout, "{text}");
+        }),
+    };
+    let _ = stdout.flush();
+    match result {
+        Ok(()) => exit::OK,
+        Err(e) => {
+            let _ = writeln!(stderr, "reprise: error: {e}");
+            e.code()
+        }
+    }
+}
+
+/// Reads, validates and orders the pipeline at `path`.
+pub fn load(path: &Path) -> Result<(Pipeline, Dag)> {
+    let pipeline = Pipeline::load(path)?;
+    let dag = Dag::build(&pipeline)?;
+    Ok((pipeline, dag))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn call(args: &[&str]) -> (i32, String, String) {
+        let (mut out, mut err) = (Vec::new(), Vec::new());
+        let code = main_with_io(args.iter().map(OsString::from), &mut out, &mut err);
+        (code, String::from_utf8(out).unwrap(), String::from_utf8(err).unwrap())
+    }
+
+    #[test]
+    fn help_and_usage_errors() {
+        let (code, out, _) = call(&["reprise", "--help"]);
+        assert_eq!(code, exit::OK);
+        for sub in ["run", "status", "dag", "inspect"] {
+            assert!(out.contains(sub), "{out}");
+        }
+        let (code, out, _) = call(&["reprise", "run", "--help"]);
+        assert_eq!(code, exit::OK);
+        assert!(
+            out.contains("--force <STAGE>") && out.contains("--to <STAGE>") && out.contains("--pipeline <FILE>"),
+            "{out}"
+        );
+        let (code, _, err) = call(&["reprise", "frobnicate"]);
+        assert_eq!(code, exit::CONFIG);
+        assert!(err.contains("frobnicate"), "{err}");
+    }
+
+    #[test]
+    fn missing_pipeline_is_a_config_error_printed_once() {
+        let (code, _, err) = call(&["reprise", "status", "--pipeline", "/nonexistent/pipeline.toml"]);
+        assert_eq!(code, exit::CONFIG);
+        assert_eq!(err.matches("reprise: error:").count(), 1, "{err}");
+        assert!(err.contains("cannot read `/nonexistent/pipeline.toml`"), "{err}");
+    }
+
+    #[test]
+    fn can_be_called_twice_in_one_process() {
+        for _ in 0..2 {
+            assert_eq!(call(&["reprise", "--version"]).0, exit::OK);
+            assert_eq!(call(&["reprise", "dag", "--pipeline", "/nonexistent.toml"]).0, exit::CONFIG);
+        }
+    }
 }

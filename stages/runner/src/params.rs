@@ -101,9 +101,7 @@ impl ParamValue {
     pub(crate) fn from_toml(value: &toml::Value) -> Result<Self, NotAParam> {
         match value {
             toml::Value::Table(_) => Err(NotAParam::Table),
-            toml::Value::Array(items) => {
-                items.iter().map(Scalar::from_toml).collect::<Result<_, _>>().map(Self::Array)
-            }
+            toml::Value::Array(items) => items.iter().map(Scalar::from_toml).collect::<Result<_, _>>().map(Self::Array),
             scalar => Scalar::from_toml(scalar).map(Self::Scalar),
         }
     }

@@ -96,10 +96,10 @@ pub struct Pipeline {
 impl Pipeline {
     /// Reads and validates the pipeline file at `path`.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| Error::PipelineRead { path: path.to_path_buf(), source })?;
-        let abs = std::path::absolute(path)
-            .map_err(|source| Error::PipelineRead { path: path.to_path_buf(), source })?;
+        let text =
+            std::fs::read_to_string(path).map_err(|source| Error::PipelineRead { path: path.to_path_buf(), source })?;
+        let abs =
+            std::path::absolute(path).map_err(|source| Error::PipelineRead { path: path.to_path_buf(), source })?;
         let dir = crate::paths::normalize(abs.parent().unwrap_or(Path::new("/")));
         Self::parse(&text, &path.display().to_string(), &dir)
     }
@@ -107,10 +107,8 @@ impl Pipeline {
     /// Validates pipeline text; `file` names it in messages, `dir` is its absolute directory.
     pub fn parse(text: &str, file: &str, dir: &Path) -> Result<Self> {
         let ctx = Ctx { file };
-        let top: toml::Table = toml::from_str(text).map_err(|e| Error::PipelineSyntax {
-            file: file.into(),
-            message: e.to_string().trim_end().to_string(),
-        })?;
+        let top: toml::Table = toml::from_str(text)
+            .map_err(|e| Error::PipelineSyntax { file: file.into(), message: e.to_string().trim_end().to_string() })?;
         ctx.known_keys("top level", &top, TOP_KEYS)?;
 
         let header = top.get("pipeline").ok_or_else(|| ctx.invalid("top level", "missing `[pipeline]` table"))?;
@@ -126,10 +124,8 @@ impl Pipeline {
             Some(toml::Value::Table(t)) => t,
             Some(_) => return Err(ctx.invalid("`stage`", "must be a table of `[stage.<name>]` tables")),
         };
-        let stages = stage_tables
-            .iter()
-            .map(|(name, value)| ctx.stage(dir, name, value))
-            .collect::<Result<Vec<_>>>()?;
+        let stages =
+            stage_tables.iter().map(|(name, value)| ctx.stage(dir, name, value)).collect::<Result<Vec<_>>>()?;
 
         let pipeline = Self {
             file: file.into(),
@@ -405,10 +401,7 @@ mod tests {
     #[test]
     fn unknown_stage_key_names_file_stage_and_key() {
         let text = EXAMPLE.replace("outputs.segments", "ouputs.segments");
-        assert_eq!(
-            err(&text),
-            "pipeline.toml: stage `label`: unknown key `ouputs` (did you mean `outputs`?)"
-        );
+        assert_eq!(err(&text), "pipeline.toml: stage `label`: unknown key `ouputs` (did you mean `outputs`?)");
     }
 
     #[test]
@@ -438,12 +431,15 @@ mod tests {
     fn wrong_types() {
         assert!(err("[pipeline]\nname = \"x\"\n[stage.a]\nbin = \"a\"\ninputs.f = 3\n")
             .contains("stage `a`: input `f` must be a non-empty path string, found integer"));
-        assert!(err("[pipeline]\nname = \"x\"\n[stage.a]\nbin = \"a\"\nafter = \"b\"\n").contains("stage `a`: invalid type"));
+        assert!(err("[pipeline]\nname = \"x\"\n[stage.a]\nbin = \"a\"\nafter = \"b\"\n")
+            .contains("stage `a`: invalid type"));
     }
 
     #[test]
     fn names_are_checked() {
-        assert!(err("[pipeline]\nname = \"x\"\n[stage.Ingest]\nbin = \"a\"\n").contains("stage name `Ingest` is invalid"));
+        assert!(
+            err("[pipeline]\nname = \"x\"\n[stage.Ingest]\nbin = \"a\"\n").contains("stage name `Ingest` is invalid")
+        );
         assert!(err("[pipeline]\nname = \"x\"\n[stage.a]\nbin = \"a\"\noutputs.\"a b\" = \"x\"\n")
             .contains("stage `a`: output name `a b` is invalid"));
         assert!(err("[pipeline]\nname = \"x\"\n[stage.a]\nbin = \"a\"\nparams.minLen = 1\n")
@@ -455,10 +451,7 @@ mod tests {
     fn duplicate_output() {
         let text = "[pipeline]\nname = \"x\"\n[stage.a]\nbin = \"a\"\noutputs.o = \"out/o.parquet\"\n\
                     [stage.b]\nbin = \"b\"\noutputs.p = \"./out/o.parquet\"\n";
-        assert_eq!(
-            err(text),
-            "pipeline.toml: output `out/o.parquet` is produced by both stage `a` and stage `b`"
-        );
+        assert_eq!(err(text), "pipeline.toml: output `out/o.parquet` is produced by both stage `a` and stage `b`");
     }
 
     #[test]

@@ -48,8 +48,15 @@ pub fn write(path: &Path, clips: &[Clip], provenance: &Provenance) -> Result<()>
 /// Reads a clips table.
 pub fn read(path: &Path) -> Result<Vec<Clip>> {
     let t = Table::read(path, CLIPS)?;
-    let (clip, frames, fps, source, source_fps) = (t.str("clip")?, t.i64("frames")?, t.f64("fps")?, t.str("source")?, t.f64("source_fps")?);
+    let (clip, frames, fps, source, source_fps) =
+        (t.str("clip")?, t.i64("frames")?, t.f64("fps")?, t.str("source")?, t.f64("source_fps")?);
     Ok((0..t.rows())
-        .map(|i| Clip { clip: clip[i].into(), frames: frames[i], fps: fps[i], source: source[i].into(), source_fps: source_fps[i] })
+        .map(|i| Clip {
+            clip: clip[i].into(),
+            frames: frames[i],
+            fps: fps[i],
+            source: source[i].into(),
+            source_fps: source_fps[i],
+        })
         .collect())
 }

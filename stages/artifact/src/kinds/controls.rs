@@ -88,7 +88,8 @@ impl Controls {
     /// Reads a controls table.
     pub fn read(path: &Path) -> Result<Self> {
         let t = Table::read(path, CONTROLS)?;
-        let rig = serde_json::from_str(t.meta(KEY_RIG)?).map_err(|e| t.invalid(format!("metadata `{KEY_RIG}`: {e}")))?;
+        let rig =
+            serde_json::from_str(t.meta(KEY_RIG)?).map_err(|e| t.invalid(format!("metadata `{KEY_RIG}`: {e}")))?;
         let (name, group, unit) = (t.str("name")?, t.str("group")?, t.str("unit")?);
         let (default, min, max, animated) = (t.f64("default")?, t.f64("min")?, t.f64("max")?, t.bool("animated")?);
         let controls = (0..t.rows())

@@ -98,9 +98,13 @@ impl Frames {
     }
 
     fn from_table(table: &Table, skip: &[&str]) -> Result<Self> {
-        let fps: f64 = table.meta(KEY_FPS)?.parse().map_err(|_| table.invalid(format!("metadata `{KEY_FPS}` is not a number")))?;
-        let controls: Vec<String> =
-            table.column_names().into_iter().filter(|c| !RESERVED.contains(&c.as_str()) && !skip.contains(&c.as_str())).collect();
+        let fps: f64 =
+            table.meta(KEY_FPS)?.parse().map_err(|_| table.invalid(format!("metadata `{KEY_FPS}` is not a number")))?;
+        let controls: Vec<String> = table
+            .column_names()
+            .into_iter()
+            .filter(|c| !RESERVED.contains(&c.as_str()) && !skip.contains(&c.as_str()))
+            .collect();
         let rows = table.rows();
         let mut values = vec![0.0; rows * controls.len()];
         for (c, name) in controls.iter().enumerate() {
@@ -116,7 +120,9 @@ impl Frames {
             controls,
             values,
         };
-        if let Some(row) = (1..rows).find(|&r| frames.clip[r] == frames.clip[r - 1] && frames.frame[r] <= frames.frame[r - 1]) {
+        if let Some(row) =
+            (1..rows).find(|&r| frames.clip[r] == frames.clip[r - 1] && frames.frame[r] <= frames.frame[r - 1])
+        {
             return Err(table.invalid(format!(
                 "row {row}: clip `{}` frame {} does not follow frame {}",
                 frames.clip[row],

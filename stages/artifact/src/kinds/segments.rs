@@ -56,13 +56,20 @@ pub fn write(path: &Path, segments: &[Segment], provenance: &Provenance) -> Resu
 /// Reads a segments table, checking `start <= end`.
 pub fn read(path: &Path) -> Result<Vec<Segment>> {
     let t = Table::read(path, SEGMENTS)?;
-    let (id, label, clip, start, end) = (t.i64("segment_id")?, t.str("label")?, t.str("clip")?, t.i64("start")?, t.i64("end")?);
+    let (id, label, clip, start, end) =
+        (t.i64("segment_id")?, t.str("label")?, t.str("clip")?, t.i64("start")?, t.i64("end")?);
     (0..t.rows())
         .map(|i| {
             if start[i] > end[i] {
                 return Err(t.invalid(format!("row {i}: start {} after end {}", start[i], end[i])));
             }
-            Ok(Segment { segment_id: id[i], label: label[i].into(), clip: clip[i].into(), start: start[i], end: end[i] })
+            Ok(Segment {
+                segment_id: id[i],
+                label: label[i].into(),
+                clip: clip[i].into(),
+                start: start[i],
+                end: end[i],
+            })
         })
         .collect()
 }

@@ -1,0 +1,188 @@
+//! Stage-level tests on small curve tables written to a tempdir.
+
+use std::path::{Path, PathBuf};
+
+use reprise_artifact::clips;
+use reprise_artifact::controls::{Controls, RigRef};
+use reprise_artifact::frames::Frames;
+
+use crate::{run, Args, Layout};
+
+fn args(dir: &Path, name: &str, text: &str) -> Args {
+    let curves = dir.join(name);
+    std::fs::write(&curves, text).unwrap();
+    Args {
+        curves: Some(curves),
+        generate: None,
+        seed: 7,
+        layout: Layout::Auto,
+        fps: 24.0,
+        source_fps: None,
+        clip: None,
+        frames: dir.join("frames.parquet"),
+        controls: dir.join("controls.parquet"),
+        clips: dir.join("clips.parquet"),
+        check: false,
+    }
+}
+
+fn outputs(a: &Args) -> [&PathBuf; 3] {
+    [&a.frames, &a.controls, &a.clips]
+}
+
+#[test]
+fn wide_csv_with_clips() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = args(dir.path(), "c.csv", "clip,frame,jaw,brow\nx,0,0,1\nx,1,0.5,1\ny,0,2,1\ny,1,3,1\ny,2,4,1\n");
+    let s = run(&a).unwrap().unwrap();
+    assert_eq!((s.frames, s.controls, s.clips), (5, 2, 2));
+    let f = Frames::read(&a.frames).unwrap();
+    assert_eq!(f.controls, vec!["jaw", "brow"]);
+    assert_eq!(f.row(3), &[3.0, 1.0]);
+    let c = Controls::read(&a.controls).unwrap();
+    assert_eq!(c.rig, RigRef::None);
+    assert_eq!(c.controls.iter().map(|c| c.animated).collect::<Vec<_>>(), vec![true, false]);
+    assert_eq!((c.controls[0].min, c.controls[0].max), (0.0, 4.0));
+    let cl = clips::read(&a.clips).unwrap();
+    assert_eq!(cl.iter().map(|c| c.frames).collect::<Vec<_>>(), vec![2, 3]);
+}
+
+/// A long table at 48 fps (by its `time` column) is resampled to 24 fps and gives the
+/// same frames as the equivalent wide table.
+#[test]
+fn long_table_resampled_matches_wide() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut long = String::from("control,time,value\n");
+    let mut wide = String::from("time,a,b\n");
+    for i in 0..9 {
+        let t = f64::from(i) / 48.0;
+        long.push_str(&format!("b,{t},{}\na,{t},{}\n", 2.0 * t, t * t));
+        wide.push_str(&format!("{t},{},{}\n", t * t, 2.0 * t));
+    }
+    let a = args(dir.path(), "long.csv", &long);
+    run(&a).unwrap();
+    let from_long = Frames::read(&a.frames).unwrap();
+    assert_eq!(from_long.rows(), 5);
+    assert_eq!(from_long.controls, vec!["b", "a"]);
+    let sub = dir.path().join("w");
+    std::fs::create_dir(&sub).unwrap();
+    let w = args(&sub, "long.csv", &wide);
+    run(&w).unwrap();
+    let from_wide = Frames::read(&w.frames).unwrap();
+    for r in 0..5 {
+        assert_eq!(from_long.row(r)[0], from_wide.row(r)[1]);
+        assert!((from_long.row(r)[1] - from_wide.row(r)[0]).abs() < 1e-12);
+    }
+    assert!((clips::read(&a.clips).unwrap()[0].source_fps - 48.0).abs() < 1e-6);
+}
+
+#[test]
+fn source_fps_converts_frame_numbers() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut a = args(dir.path(), "c.csv", "frame,v\n0,0\n1,1\n2,2\n3,3\n4,4\n");
+    a.source_fps = Some(48.0);
+    a.clip = Some("take".into());
+    run(&a).unwrap();
+    let f = Frames::read(&a.frames).unwrap();
+    assert_eq!(f.column(0), vec![0.0, 2.0, 4.0]);
+    assert_eq!(f.clip[0], "take");
+}
+
+#[test]
+fn dragon_face_generates_the_corpus() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut a = args(dir.path(), "unused.csv", "");
+    a.curves = None;
+    a.generate = Some(crate::Generator::DragonFace);
+    let s = run(&a).unwrap().unwrap();
+    assert!((700..=800).contains(&s.controls), "{}", s.controls);
+    assert!(s.frames > 3745, "good frames plus bad takes, got {}", s.frames);
+    let c = Controls::read(&a.controls).unwrap();
+    assert!(matches!(c.rig, RigRef::DragonFace { seed: 7, .. }));
+    assert!(c.controls.iter().any(|c| !c.animated), "some controls never move");
+    assert!(c.controls.iter().any(|c| c.group == "eyes"));
+}
+
+/// One test per bad input: a clear message naming the file and where, the INPUT exit
+/// code, and earlier artifacts left untouched.
+macro_rules! bad_input {
+    ($($name:ident: $file:literal, $text:expr, $($needle:literal),+;)*) => {$(
+        #[test]
+        fn $name() {
+            let dir = tempfile::tempdir().unwrap();
+            let a = args(dir.path(), $file, $text);
+            for out in outputs(&a) {
+                std::fs::write(out, b"earlier artifact").unwrap();
+            }
+            let err = run(&a).unwrap_err();
+            let msg = err.to_string();
+            assert!(msg.contains($file), "{msg}");
+            $(assert!(msg.contains($needle), "expected `{}` in: {msg}", $needle);)+
+            assert_eq!(err.code(), reprise_stagekit::exit::INPUT);
+            for out in outputs(&a) {
+                assert_eq!(std::fs::read(out).unwrap(), b"earlier artifact");
+            }
+        }
+    )*};
+}
+
+bad_input! {
+    duplicated_column: "d.csv", "frame,jaw,brow,jaw\n0,1,2,3\n", "duplicated column `jaw`", "columns 2 and 4";
+    unknown_long_column: "l.csv", "frame,control,value,weight\n0,a,1,1\n", "unknown column `weight`";
+    non_numeric_control: "n.csv", "frame,jaw\n0,1\n1,open\n", "line 3", "column `jaw`", "`open` is not a number";
+    nan_value: "nan.csv", "frame,jaw\n0,1\n1,NaN\n", "line 3", "column `jaw`", "not finite";
+    inf_value: "inf.csv", "frame,jaw\n0,1\n1,inf\n", "line 3", "not finite";
+    empty_cell: "e.csv", "frame,jaw,brow\n0,1,\n", "line 2", "column `brow`", "missing value";
+    duplicated_frame: "dup.csv", "clip,frame,jaw\na,0,1\na,1,1\na,1,2\n", "line 4", "column `frame`", "repeats line 3";
+    frames_going_back: "back.csv", "clip,time,jaw\na,0.0,1\na,0.2,1\na,0.1,2\n", "line 4", "column `time`", "goes back";
+    fractional_frame: "frac.csv", "frame,jaw\n0.5,1\n", "line 2", "not a whole frame number";
+    no_time_column: "nt.csv", "clip,jaw\na,1\n", "no `frame` or `time` column";
+    long_missing_control: "lm.csv", "frame,control,value\n0,a,1\n0,b,1\n1,a,2\n", "time 0.041", "control `b` is missing";
+    long_duplicate: "ld.csv", "frame,control,value\n0,a,1\n0,a,2\n", "line 3", "repeats line 2";
+    reserved_column: "r.csv", "frame,label\n0,1\n", "`label` is reserved";
+    not_a_table: "t.txt", "frame,jaw\n0,1\n", "expected a .csv or .parquet";
+}
+
+#[test]
+fn missing_file_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut a = args(dir.path(), "c.csv", "frame,v\n0,1\n");
+    a.curves = Some(dir.path().join("nowhere.csv"));
+    let err = run(&a).unwrap_err().to_string();
+    assert!(err.contains("nowhere.csv"), "{err}");
+}
+
+#[test]
+fn parquet_curves_with_bad_values_name_the_row() {
+    use reprise_artifact::{table, Columns, Kind, Provenance};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("c.parquet");
+    let cols = Columns::new().i64("frame", vec![0, 1, 2]).f64("jaw", vec![0.0, f64::INFINITY, 1.0]);
+    table::write(
+        &path,
+        Kind { name: "user", version: 1 },
+        cols,
+        &Provenance::new("x", "0", serde_json::json!({})),
+        &[],
+    )
+    .unwrap();
+    let mut a = args(dir.path(), "unused.csv", "");
+    a.curves = Some(path);
+    let err = run(&a).unwrap_err().to_string();
+    assert!(err.contains("c.parquet") && err.contains("column `jaw`, row 1"), "{err}");
+}
+
+#[test]
+fn flags_are_validated() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut a = args(dir.path(), "c.csv", "frame,v\n0,1\n");
+    a.generate = Some(crate::Generator::DragonFace);
+    assert!(run(&a).unwrap_err().to_string().contains("not both"));
+    a.generate = None;
+    a.fps = 0.0;
+    assert_eq!(run(&a).unwrap_err().code(), reprise_stagekit::exit::CONFIG);
+    a.fps = 24.0;
+    a.check = true;
+    a.curves = Some(dir.path().join("not-yet.csv"));
+    assert!(run(&a).unwrap().is_none());
+}

@@ -1,0 +1,126 @@
+//! The `reprise` command line (clap derive). Only the shape of the flags lives here; each
+//! subcommand's behaviour is in its own module.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Runs the reprise pipeline: stage binaries in dependency order, skipping every stage whose
+/// binary, parameters and inputs are unchanged since its last successful run.
+#[derive(Debug, Parser)]
+#[command(name = "reprise", version, propagate_version = true)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run the stale stages in dependency order (each stage's flags are checked first).
+    ///
+    /// A stage is stale when it never ran, its binary, parameters or inputs changed, one of
+    /// its outputs is missing or was modified, or a stage it depends on is stale. A failing
+    /// stage stops the run; stages that finished before it stay recorded in the lock file.
+    Run(RunArgs),
+    /// Say, for every stage, whether it is fresh or stale, and every reason it is stale.
+    Status(PipelineArg),
+    /// Print the stage graph as text or as a Mermaid flowchart.
+    Dag(DagArgs),
+    /// Summarise a Parquet artifact: size, rows, schema, provenance metadata, first rows.
+    Inspect(InspectArgs),
+}
+
+/// `--pipeline`.
+#[derive(Debug, Args)]
+pub struct PipelineArg {
+    /// The pipeline file; stage paths are relative to its directory, where stages also run.
+    #[arg(long, short = 'p', value_name = "FILE", default_value = "pipeline.toml")]
+    pub pipeline: PathBuf,
+}
+
+/// `reprise run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    #[command(flatten)]
+    pub pipeline: PipelineArg,
+    /// Run only STAGE and the stages it depends on (directly or not).
+    #[arg(long, value_name = "STAGE")]
+    pub to: Option<String>,
+    /// Rerun STAGE even if it is fresh, and therefore every stage downstream of it.
+    /// Repeat to force several stages.
+    #[arg(long, value_name = "STAGE")]
+    pub force: Vec<String>,
+}
+
+/// `reprise dag`.
+#[derive(Debug, Args)]
+pub struct DagArgs {
+    #[command(flatten)]
+    pub pipeline: PipelineArg,
+    /// Output format: `text` for reading, `mermaid` for a `flowchart LR` to paste into
+    /// Markdown.
+    #[arg(long, value_enum, default_value_t = DagFormat::Text)]
+    pub format: DagFormat,
+}
+
+/// How `reprise dag` prints the graph.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum DagFormat {
+    /// Stages in run order with their inputs and outputs.
+    Text,
+    /// A Mermaid `flowchart LR`.
+    Mermaid,
+}
+
+/// `reprise inspect`.
+#[derive(Debug, Args)]
+pub struct InspectArgs {
+    /// The Parquet file to summarise.
+    pub file: PathBuf,
+    /// How many rows to print.
+    #[arg(long, value_name = "N", default_value_t = 5)]
+    pub head: usize,
+    /// Comma-separated columns to show in the schema and the rows (default: the first
+    /// columns; wide tables list only the first 20 in the schema).
+    #[arg(long, value_name = "A,B,C", value_delimiter = ',')]
+    pub columns: Vec<String>,
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    use super::*;
+
+    #[test]
+    fn cli_is_well_formed() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn every_flag_has_help() {
+        let mut cli = Cli::command();
+        cli.build();
+        for sub in cli.get_subcommands() {
+            assert!(sub.get_about().is_some(), "`{}` has no help", sub.get_name());
+            for arg in sub.get_arguments() {
+                assert!(arg.get_help().is_some(), "`{} {}` has no help", sub.get_name(), arg.get_id());
+            }
+        }
+    }
+
+    #[test]
+    fn repeated_force_and_column_list() {
+        let cli = Cli::try_parse_from(["reprise", "run", "--force", "a", "--force", "b", "--to", "c"]).unwrap();
+        let Command::Run(run) = cli.command else { panic!("not run") };
+        assert_eq!(run.force, ["a", "b"]);
+        assert_eq!(run.to.as_deref(), Some("c"));
+        assert_eq!(run.pipeline.pipeline, PathBuf::from("pipeline.toml"));
+        let cli = Cli::try_parse_from(["reprise", "inspect", "f.parquet", "--columns", "a,b"]).unwrap();
+        let Command::Inspect(inspect) = cli.command else { panic!("not inspect") };
+        assert_eq!(inspect.columns, ["a", "b"]);
+        assert_eq!(inspect.head, 5);
+    }
+}

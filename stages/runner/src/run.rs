@@ -1,0 +1,210 @@
+//! `reprise run`: decide which stages are stale, check their flags, then run them in order,
+//! recording each success in the lock file as soon as it happens.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::io::Write;
+use std::time::{Instant, SystemTime};
+
+use crate::cache::{self, Assessment, ResolvedBin};
+use crate::cli::RunArgs;
+use crate::dag::Dag;
+use crate::error::{Error, Result};
+use crate::exec::{self, Outcome};
+use crate::hash::FileHasher;
+use crate::locate::BinDirs;
+use crate::lock::{FileRecord, LockEntry, LockFile};
+use crate::params::canonical_json;
+use crate::pipeline::{Pipeline, Stage};
+
+/// Runs the pipeline; progress goes to `log` (the runner's stderr).
+pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
+    let started = Instant::now();
+    let (pipeline, dag) = crate::load(&args.pipeline.pipeline)?;
+    let selected = match &args.to {
+        Some(to) => dag.with_ancestors(pipeline.index_of(to)?),
+        None => (0..pipeline.stages.len()).collect(),
+    };
+    let mut forced = BTreeSet::new();
+    for name in &args.force {
+        let i = pipeline.index_of(name)?;
+        if !selected.contains(&i) {
+            let to = args.to.clone().unwrap_or_default();
+            return Err(Error::ForcedNotSelected { stage: name.clone(), to });
+        }
+        forced.insert(i);
+    }
+
+    let lock_path = pipeline.lock_path();
+    let (mut lock, warning) = LockFile::load(&lock_path, &pipeline.name);
+    if let Some(warning) = warning {
+        say(log, &format!("reprise: warning: {warning}"));
+    }
+    lock.pipeline.clone_from(&pipeline.name);
+    lock.stages.retain(|name, _| pipeline.stage(name).is_some());
+
+    let mut hasher = FileHasher::new();
+    let ctx = cache::Inputs { pipeline: &pipeline, dag: &dag, lock: &lock, forced: &forced, dirs };
+    let plan = cache::assess(&ctx, &mut hasher)?;
+    let order: Vec<usize> = dag.order().iter().copied().filter(|i| selected.contains(i)).collect();
+    let to_run: Vec<usize> = order.iter().copied().filter(|&i| !plan[i].is_fresh()).collect();
+
+    if to_run.is_empty() {
+        let scope = args.to.as_ref().map_or_else(String::new, |to| format!(" up to `{to}`"));
+        let seconds = started.elapsed().as_secs_f64();
+        let line = match order.len() {
+            1 => format!("reprise: the 1 stage{scope} is up to date ({seconds:.2} s)"),
+            n => format!("reprise: all {n} stages{scope} are up to date ({seconds:.2} s)"),
+        };
+        say(log, &line);
+        return Ok(());
+    }
+
+    let bins = preflight(&pipeline, &dag, &plan, &to_run)?;
+    say(log, &format!("{:>10} {} of {} stages", "checking", to_run.len(), order.len()));
+    check(&pipeline, &bins, &to_run)?;
+
+    let (mut ran, mut cached) = (0, 0);
+    for &i in &order {
+        let stage = &pipeline.stages[i];
+        let Some(bin) = bins.get(&i) else {
+            say(log, &format!("{:>10} {}", "cached", stage.name));
+            cached += 1;
+            continue;
+        };
+        let reasons: Vec<String> = plan[i].reasons.iter().map(ToString::to_string).collect();
+        say(log, &format!("{:>10} {} ({})", "running", stage.name, reasons.join("; ")));
+        let result = run_stage(&pipeline, stage, bin, &mut hasher);
+        match result {
+            Ok(entry) => {
+                say(log, &format!("{:>10} {} in {:.2} s", "ran", stage.name, entry.seconds));
+                lock.stages.insert(stage.name.clone(), entry);
+                lock.save(&lock_path)?;
+                ran += 1;
+            }
+            Err(e) => {
+                if lock.stages.remove(&stage.name).is_some() {
+                    lock.save(&lock_path)?;
+                }
+                return Err(e);
+            }
+        }
+    }
+    say(log, &format!("{:>10} {ran} ran, {cached} cached in {:.2} s", "finished", started.elapsed().as_secs_f64()));
+    Ok(())
+}
+
+/// Everything that can be known wrong before any child starts: a missing binary, a
+/// missing source input. Returns the binary of each stage to run.
+fn preflight(
+    pipeline: &Pipeline,
+    dag: &Dag,
+    plan: &[Assessment],
+    to_run: &[usize],
+) -> Result<BTreeMap<usize, ResolvedBin>> {
+    let mut bins = BTreeMap::new();
+    for &i in to_run {
+        let stage = &pipeline.stages[i];
+        let bin = plan[i].bin.clone().map_err(|searched| Error::StageBinaryMissing {
+            stage: stage.name.clone(),
+            bin: stage.bin.declared().into(),
+            searched,
+        })?;
+        let produced = dag.produced_inputs(i);
+        for (name, path) in &stage.inputs {
+            if !produced.contains(name.as_str()) && !path.abs.exists() {
+                return Err(Error::SourceMissing {
+                    stage: stage.name.clone(),
+                    input: name.clone(),
+                    path: path.rel.clone(),
+                });
+            }
+        }
+        bins.insert(i, bin);
+    }
+    Ok(bins)
+}
+
+/// Invokes every stage to run with `--check`; all are tried so every problem shows at once.
+fn check(pipeline: &Pipeline, bins: &BTreeMap<usize, ResolvedBin>, to_run: &[usize]) -> Result<()> {
+    let mut failures = Vec::new();
+    let mut code = None;
+    for &i in to_run {
+        let stage = &pipeline.stages[i];
+        let (why, exit) = match exec::invoke(stage, &bins[&i].path, &pipeline.dir, true)? {
+            Outcome::Success => continue,
+            Outcome::Failed(c) => (format!("exit code {c}"), c),
+            Outcome::Killed(s) => {
+                (format!("killed by signal {s} ({})", exec::signal_name(s)), reprise_stagekit::exit::STAGE_CRASHED)
+            }
+        };
+        failures.push((stage.name.clone(), why));
+        code.get_or_insert(exit);
+    }
+    match code {
+        None => Ok(()),
+        Some(code) => Err(Error::CheckFailed { failures, code }),
+    }
+}
+
+/// Runs one stage and returns its lock entry; nothing is recorded on failure.
+fn run_stage(pipeline: &Pipeline, stage: &Stage, bin: &ResolvedBin, hasher: &mut FileHasher) -> Result<LockEntry> {
+    // Inputs are hashed now, after upstream stages of this run rewrote them.
+    let inputs = cache::input_hashes(stage, hasher)?;
+    let mut input_records = BTreeMap::new();
+    for (name, path) in &stage.inputs {
+        let Some(blake3) = inputs[name].clone() else {
+            return Err(Error::SourceMissing {
+                stage: stage.name.clone(),
+                input: name.clone(),
+                path: path.rel.clone(),
+            });
+        };
+        input_records.insert(name.clone(), FileRecord { path: path.rel.clone(), blake3 });
+    }
+    for (_, path) in &stage.outputs {
+        hasher.forget(&path.abs);
+        if let Some(parent) = path.abs.parent() {
+            std::fs::create_dir_all(parent).map_err(|source| Error::Io { path: parent.to_path_buf(), source })?;
+        }
+    }
+
+    let started = Instant::now();
+    let outcome = exec::invoke(stage, &bin.path, &pipeline.dir, false)?;
+    let seconds = started.elapsed().as_secs_f64();
+    match outcome {
+        Outcome::Success => {}
+        Outcome::Failed(code) => return Err(Error::StageFailed { stage: stage.name.clone(), code }),
+        Outcome::Killed(signal) => {
+            return Err(Error::StageKilled { stage: stage.name.clone(), signal, name: exec::signal_name(signal) });
+        }
+    }
+
+    let mut outputs = BTreeMap::new();
+    for (name, path) in &stage.outputs {
+        hasher.forget(&path.abs);
+        let Some(blake3) = hasher.hash(&path.abs)? else {
+            return Err(Error::OutputNotWritten {
+                stage: stage.name.clone(),
+                output: name.clone(),
+                path: path.rel.clone(),
+            });
+        };
+        outputs.insert(name.clone(), FileRecord { path: path.rel.clone(), blake3 });
+    }
+    let key = cache::current_key(stage, bin, &inputs).unwrap_or_default();
+    Ok(LockEntry {
+        key,
+        bin: FileRecord { path: bin.path.display().to_string(), blake3: bin.blake3.clone() },
+        params: canonical_json(&stage.params),
+        inputs: input_records,
+        outputs,
+        finished_at: crate::clock::rfc3339(SystemTime::now()),
+        seconds,
+    })
+}
+
+/// Writes one progress line and flushes it, so it lands before the next child's output.
+fn say(log: &mut dyn Write, line: &str) {
+    let _ = writeln!(log, "{line}");
+    let _ = log.flush();
+}

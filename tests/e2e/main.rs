@@ -1,0 +1,8 @@
+//! End-to-end tests: the real stage binaries run by the real runner on small real
+//! inputs in a temporary directory. One test binary, topic modules.
+
+mod util;
+
+mod default_pipeline;
+mod pipeline_errors;
+mod python_readers;

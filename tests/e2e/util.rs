@@ -1,0 +1,88 @@
+//! A temporary project directory with a pipeline, and the `reprise` binary run in it.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The repository root.
+pub fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().unwrap()
+}
+
+/// A project directory holding a copy of the repository's pipeline and labels.
+pub struct Project {
+    pub dir: tempfile::TempDir,
+}
+
+impl Project {
+    /// An empty project.
+    pub fn empty() -> Self {
+        Self { dir: tempfile::tempdir().unwrap() }
+    }
+
+    /// A project with the default dragon-face pipeline and its labels file.
+    pub fn dragon_face() -> Self {
+        let p = Self::empty();
+        p.write("pipeline.toml", &std::fs::read_to_string(repo().join("pipeline.toml")).unwrap());
+        p.write(
+            "datasets/dragon-face/labels.toml",
+            &std::fs::read_to_string(repo().join("datasets/dragon-face/labels.toml")).unwrap(),
+        );
+        p
+    }
+
+    pub fn path(&self, rel: &str) -> PathBuf {
+        self.dir.path().join(rel)
+    }
+
+    pub fn write(&self, rel: &str, text: &str) {
+        let path = self.path(rel);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, text).unwrap();
+    }
+
+    pub fn read(&self, rel: &str) -> String {
+        std::fs::read_to_string(self.path(rel)).unwrap()
+    }
+
+    /// Runs `reprise ARGS` in the project with the stage binaries of this build.
+    pub fn reprise(&self, args: &[&str]) -> Run {
+        let exe = Path::new(env!("CARGO_BIN_EXE_reprise"));
+        let output = Command::new(exe)
+            .args(args)
+            .current_dir(self.dir.path())
+            .env("REPRISE_BIN_DIR", exe.parent().unwrap())
+            .output()
+            .unwrap();
+        Run { output }
+    }
+}
+
+/// The outcome of one command.
+pub struct Run {
+    pub output: Output,
+}
+
+impl Run {
+    pub fn stdout(&self) -> String {
+        String::from_utf8_lossy(&self.output.stdout).into_owned()
+    }
+    pub fn stderr(&self) -> String {
+        String::from_utf8_lossy(&self.output.stderr).into_owned()
+    }
+    pub fn all(&self) -> String {
+        format!("{}{}", self.stdout(), self.stderr())
+    }
+    pub fn code(&self) -> Option<i32> {
+        self.output.status.code()
+    }
+    /// Asserts success and returns stdout + stderr.
+    pub fn ok(self) -> String {
+        assert!(self.output.status.success(), "command failed ({:?}):\n{}", self.code(), self.all());
+        self.all()
+    }
+    /// Asserts failure with `code` and returns stdout + stderr.
+    pub fn fails(self, code: i32) -> String {
+        assert_eq!(self.code(), Some(code), "expected exit code {code}:\n{}", self.all());
+        self.all()
+    }
+}
