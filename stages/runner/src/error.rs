@@ -15,6 +15,10 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
+    /// One or more stages rejected their flags when invoked with `--check`.
+    #[error("{}", check_failures(failures))]
+    CheckFailed { failures: Vec<(String, String)>, code: i32 },
+
     /// A stage names itself (or a stage that names it) as a dependency.
     #[error("{file}: dependency cycle: {cycle}")]
     Cycle { file: String, cycle: String },
@@ -31,21 +35,9 @@ pub enum Error {
     #[error("stage `{stage}` is forced but `--to {to}` does not select it (it is not `{to}` or one of its ancestors)")]
     ForcedNotSelected { stage: String, to: String },
 
-    /// A name (stage, input, output, parameter) is not `[a-z0-9_-]+`.
-    #[error("{file}: {what} name `{name}` is invalid: use only lowercase letters, digits, `_` and `-`")]
-    InvalidName { file: String, what: String, name: String },
-
-    /// A value in `pipeline.toml` has the wrong type or is out of place.
-    #[error("{file}: {context}: {message}")]
-    InvalidValue { file: String, context: String, message: String },
-
     /// An input and a parameter of the same stage share a name.
     #[error("{file}: stage `{stage}`: `{name}` is both an input and a parameter")]
     InputParamClash { file: String, stage: String, name: String },
-
-    /// Reading a file's content for hashing failed (other than it not existing).
-    #[error("cannot read `{}`: {source}", path.display())]
-    Io { path: PathBuf, source: io::Error },
 
     /// `inspect` was asked for a column the file does not have.
     #[error("`{}` has no column `{column}` (columns: {available})", path.display())]
@@ -54,6 +46,18 @@ pub enum Error {
     /// `inspect` could not decode a Parquet file's rows.
     #[error("cannot read rows of `{}`: {message}", path.display())]
     InspectRows { path: PathBuf, message: String },
+
+    /// A name (stage, input, output, parameter) is not `[a-z0-9_-]+`.
+    #[error("{file}: {what} name `{name}` is invalid: use only lowercase letters, digits, `_` and `-`")]
+    InvalidName { file: String, what: String, name: String },
+
+    /// A value in `pipeline.toml` has the wrong type or is out of place.
+    #[error("{file}: {context}: {message}")]
+    InvalidValue { file: String, context: String, message: String },
+
+    /// Reading a file's content for hashing failed (other than it not existing).
+    #[error("cannot read `{}`: {source}", path.display())]
+    Io { path: PathBuf, source: io::Error },
 
     /// Writing the lock file failed.
     #[error("cannot write lock file `{}`: {source}", path.display())]
@@ -76,10 +80,6 @@ pub enum Error {
     /// A stage exited 0 without writing one of its declared outputs.
     #[error("stage `{stage}` exited 0 but did not write output `{output}` ({path})")]
     OutputNotWritten { stage: String, output: String, path: String },
-
-    /// One or more stages rejected their flags when invoked with `--check`.
-    #[error("{}", check_failures(failures))]
-    CheckFailed { failures: Vec<(String, String)>, code: i32 },
 
     /// `pipeline.toml` (or another named file) could not be read.
     #[error("cannot read `{}`: {source}", path.display())]
