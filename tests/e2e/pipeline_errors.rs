@@ -66,7 +66,7 @@ fn unknown_parameter_is_caught_before_any_stage_runs() {
 #[test]
 fn dependency_cycle_and_unknown_stage() {
     let p = small("");
-    let cyclic = p.read("pipeline.toml").replace("[stage.label]\n", "[stage.label]\n").replace(
+    let cyclic = p.read("pipeline.toml").replace(
         "[stage.ingest]\nbin = \"reprise-ingest\"\n",
         "[stage.ingest]\nbin = \"reprise-ingest\"\nafter = [\"label\"]\n",
     );

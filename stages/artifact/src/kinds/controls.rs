@@ -37,6 +37,25 @@ pub enum RigRef {
         /// Rig math version; a mismatch means the artifacts are stale.
         version: String,
     },
+    /// A glTF 2.0 file: linear blend skinning and morph targets of its default scene.
+    Gltf {
+        /// The file, as given to ingest (relative to the pipeline directory).
+        path: String,
+        /// blake3 of the file when it was ingested.
+        blake3: String,
+    },
+    /// A BVH skeleton: forward kinematics, joint positions as vertices.
+    Bvh {
+        /// The file, as given to ingest.
+        path: String,
+        /// blake3 of the file when it was ingested.
+        blake3: String,
+    },
+    /// A user's evaluator process speaking Arrow IPC over stdin/stdout.
+    External {
+        /// Program and arguments.
+        command: Vec<String>,
+    },
     /// No rig is known (curve tables without a rig): mesh-space steps are unavailable.
     None,
 }
