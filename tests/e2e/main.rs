@@ -4,5 +4,6 @@
 mod util;
 
 mod default_pipeline;
+mod external_rig;
 mod pipeline_errors;
 mod python_readers;

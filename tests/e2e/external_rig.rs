@@ -1,0 +1,67 @@
+//! The external rig protocol against the reference evaluator `reprise-example-rig`,
+//! including evaluators that exit early, hang, or answer the wrong size.
+
+use std::path::Path;
+use std::time::Duration;
+
+use reprise_rig::external::ExternalRig;
+use reprise_rig::linear::LinearRig;
+use reprise_rig::Rig;
+
+fn names(n: usize) -> Vec<String> {
+    (0..n).map(|i| format!("c{i}")).collect()
+}
+
+fn spawn(flags: &[&str], timeout: Duration) -> Result<ExternalRig, reprise_rig::RigError> {
+    let mut command = vec![env!("CARGO_BIN_EXE_reprise-example-rig").to_string(), "--vertices".into(), "7".into()];
+    command.extend(flags.iter().map(|s| s.to_string()));
+    ExternalRig::spawn_with_timeout(&command, Path::new("."), names(4), vec![0.0; 4], timeout)
+}
+
+/// The external process gives exactly what the in-process linear rig gives.
+#[test]
+fn external_matches_in_process() {
+    let rig = spawn(&[], Duration::from_secs(20)).unwrap();
+    assert_eq!(rig.vertex_count(), 7);
+    let local = LinearRig::new(names(4), 7);
+    let poses: Vec<f64> = (0..40).map(|i| f64::from(i) * 0.1 - 1.0).collect();
+    let mut a = vec![0.0; 10 * 21];
+    let mut b = vec![0.0; 10 * 21];
+    rig.evaluate_batch(&poses, &mut a).unwrap();
+    local.evaluate_batch(&poses, &mut b).unwrap();
+    assert_eq!(a, b);
+    // A second batch on the same process.
+    rig.evaluate_batch(&poses[..4], &mut a[..21]).unwrap();
+    assert_eq!(a[..21], b[..21]);
+}
+
+#[test]
+fn evaluator_exiting_early() {
+    let rig = spawn(&["--fail-after", "1"], Duration::from_secs(20)).unwrap();
+    let err = rig.evaluate(&[1.0, 0.0, 0.0, 0.0]).unwrap_err().to_string();
+    assert!(err.contains("ended its output") && err.contains("failing on purpose"), "{err}");
+}
+
+#[test]
+fn evaluator_hanging_times_out() {
+    let rig = spawn(&["--hang-after", "1"], Duration::from_millis(500)).unwrap();
+    let err = rig.evaluate(&[1.0, 0.0, 0.0, 0.0]).unwrap_err().to_string();
+    assert!(err.contains("no answer within 0.5 s"), "{err}");
+}
+
+#[test]
+fn evaluator_answering_wrong_size() {
+    let rig = spawn(&["--wrong-count"], Duration::from_secs(20)).unwrap();
+    let mut out = vec![0.0; 2 * 21];
+    let err = rig.evaluate_batch(&[0.0; 8], &mut out).unwrap_err().to_string();
+    assert!(err.contains("answered 1 poses for 2 sent"), "{err}");
+}
+
+#[test]
+fn evaluator_that_cannot_start() {
+    let err = ExternalRig::spawn(&["/nonexistent/rig".into()], Path::new("."), names(2), vec![0.0; 2])
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(err.contains("/nonexistent/rig") && err.contains("cannot start"), "{err}");
+}
