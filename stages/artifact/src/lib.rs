@@ -8,6 +8,7 @@
 //! | `clips` | [`clips`] | ingest | label |
 //! | `segments` | [`segments`] | label | pca, gplvm, synthesize, motion-graph |
 //! | `labeled_frames` | [`frames`] | label | scale, pca, motion-graph, evaluate |
+//! | `scales` | [`scales`] | scale | pca, bridges, synthesize |
 //!
 //! Every file carries provenance ([`provenance`]) in its Parquet key-value metadata and
 //! is written atomically ([`table::write_atomic`]).
@@ -20,9 +21,10 @@ mod kinds {
     pub mod clips;
     pub mod controls;
     pub mod frames;
+    pub mod scales;
     pub mod segments;
 }
-pub use kinds::{clips, controls, frames, segments};
+pub use kinds::{clips, controls, frames, scales, segments};
 
 pub use error::{ArtifactError, Result};
 pub use provenance::Provenance;

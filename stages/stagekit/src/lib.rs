@@ -6,10 +6,12 @@
 
 pub mod error;
 pub mod exit;
+pub mod rig;
 
 pub use error::{StageError, StageResult};
 
-use indicatif::{ProgressBar, ProgressStyle};
+pub use indicatif::ProgressBar;
+use indicatif::ProgressStyle;
 use reprise_artifact::Provenance;
 use serde::Serialize;
 

@@ -1,0 +1,10 @@
+//! reprise's numerics, with no I/O. Conventions: `f64` throughout; matrices of samples
+//! are row-major `N × D` slices (one row per frame) unless a type says otherwise.
+//!
+//! - [`scaling`]: the per-control weights of Bailey et al. 2016, Eq. 3.
+//! - [`pca`]: principal component analysis by a dense thin SVD (faer).
+#![warn(missing_docs)]
+
+pub mod pca;
+pub mod scaling;
+pub mod stats;
