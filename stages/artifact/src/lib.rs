@@ -9,6 +9,7 @@
 //! | `segments` | [`segments`] | label | pca, gplvm, synthesize, motion-graph |
 //! | `labeled_frames` | [`frames`] | label | scale, pca, motion-graph, evaluate |
 //! | `scales` | [`scales`] | scale | pca, bridges, synthesize |
+//! | `pca_models`, `pca_coords`, `pca_errors` | [`pca`] | pca | gplvm, bridges, evaluate |
 //!
 //! Every file carries provenance ([`provenance`]) in its Parquet key-value metadata and
 //! is written atomically ([`table::write_atomic`]).
@@ -21,10 +22,11 @@ mod kinds {
     pub mod clips;
     pub mod controls;
     pub mod frames;
+    pub mod pca;
     pub mod scales;
     pub mod segments;
 }
-pub use kinds::{clips, controls, frames, scales, segments};
+pub use kinds::{clips, controls, frames, pca, scales, segments};
 
 pub use error::{ArtifactError, Result};
 pub use provenance::Provenance;

@@ -1,0 +1,271 @@
+//! The pca stage (Bailey et al. 2016 §4.2): per label, PCA of the scaled controls
+//! $z = W(p - \bar p) + \bar p$ over the controls the scale stage marked `used`, the
+//! number of components set by an explained-variance threshold within bounds; the
+//! per-frame coordinates $Y$; and, for the scaling ablation, the same PCA of the
+//! unscaled controls with both variants' reconstruction errors in rig and mesh space at
+//! the chosen $d$ and at fixed small $d$.
+
+mod errors;
+
+use std::path::PathBuf;
+
+use clap::Parser;
+use reprise_artifact::controls::Controls;
+use reprise_artifact::frames::LabeledFrames;
+use reprise_artifact::pca::{self, PcaCoords, PcaModel, SCALED, UNSCALED};
+use reprise_artifact::scales::{self, Scale};
+use reprise_numerics::pca::{Pca, PcaParams};
+use reprise_stagekit::{StageError, StageResult};
+use serde::Serialize;
+
+/// `reprise-pca`: per-label PCA of the scaled rig controls.
+#[derive(Debug, Clone, Parser, Serialize)]
+#[command(name = "reprise-pca", version, about)]
+pub struct Args {
+    /// Input: the labeled frames.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub labeled_frames: PathBuf,
+    /// Input: the scales table.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub scales: PathBuf,
+    /// Input: the controls table (names the rig, for mesh-space errors).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub controls: PathBuf,
+    /// Output: the PCA models.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub models: PathBuf,
+    /// Output: per-frame coordinates Y.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub coords: PathBuf,
+    /// Output: reconstruction errors, scaled against unscaled.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub errors: PathBuf,
+    /// Keep the fewest components explaining this share of the variance (the paper: 0.85).
+    #[arg(long, default_value_t = 0.85)]
+    pub variance: f64,
+    /// At least this many components.
+    #[arg(long, default_value_t = 3)]
+    pub min_components: usize,
+    /// At most this many components.
+    #[arg(long, default_value_t = 64)]
+    pub max_components: usize,
+    /// Fixed small dimensions at which to also measure reconstruction error (comma-separated).
+    #[arg(long, value_delimiter = ',', default_values_t = vec![3, 10])]
+    pub fixed_d: Vec<usize>,
+    /// Also write the unscaled models and coordinates (the ablation's inputs).
+    #[arg(long, default_value_t = false, action = clap::ArgAction::Set)]
+    pub write_unscaled: bool,
+    /// Measure mesh-space errors through the rig (needs a rig; off for plain curve tables).
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    pub mesh_errors: bool,
+    /// Only validate the flags and exit.
+    #[arg(long)]
+    #[serde(skip)]
+    pub check: bool,
+}
+
+impl Args {
+    fn params(&self) -> PcaParams {
+        PcaParams { variance: self.variance, min_components: self.min_components, max_components: self.max_components }
+    }
+    fn validate(&self) -> StageResult<()> {
+        let p = self.params();
+        if !(p.variance > 0.0 && p.variance <= 1.0) || p.min_components == 0 || p.min_components > p.max_components {
+            return Err(StageError::Config(format!(
+                "need 0 < --variance <= 1 and 1 <= --min-components <= --max-components, got {}, {}, {}",
+                p.variance, p.min_components, p.max_components
+            )));
+        }
+        if self.fixed_d.contains(&0) {
+            return Err(StageError::Config("--fixed-d values must be at least 1".into()));
+        }
+        Ok(())
+    }
+}
+
+/// One label's outcome.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LabelSummary {
+    /// Label.
+    pub label: String,
+    /// Frames.
+    pub frames: usize,
+    /// Controls used.
+    pub controls: usize,
+    /// Chosen d (scaled) and its explained share.
+    pub d: usize,
+    /// Explained share at d.
+    pub explained: f64,
+    /// Chosen d of the unscaled variant.
+    pub d_unscaled: usize,
+}
+
+/// What the stage produced.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Summary {
+    /// Per label.
+    pub labels: Vec<LabelSummary>,
+    /// The error rows written.
+    pub errors: Vec<pca::PcaError>,
+}
+
+/// The frames, the used controls and the transform of one label.
+pub(crate) struct LabelData {
+    pub(crate) label: String,
+    /// Row indices into the labeled frames.
+    pub(crate) rows: Vec<usize>,
+    /// Indices (table columns) of the used controls.
+    pub(crate) used: Vec<usize>,
+    /// Per table control: mean and weight.
+    pub(crate) mean: Vec<f64>,
+    pub(crate) weight: Vec<f64>,
+}
+
+impl LabelData {
+    /// The label's frames restricted to used controls, scaled or not (row-major).
+    pub(crate) fn matrix(&self, labeled: &LabeledFrames, scaled: bool) -> Vec<f64> {
+        self.rows
+            .iter()
+            .flat_map(|&r| {
+                let row = labeled.frames.row(r);
+                self.used.iter().map(move |&c| {
+                    if scaled {
+                        self.weight[c] * (row[c] - self.mean[c]) + self.mean[c]
+                    } else {
+                        row[c]
+                    }
+                })
+            })
+            .collect()
+    }
+
+    /// A full table row from a reconstructed used-control vector: unscale, and hold the
+    /// controls that are not modelled at their mean.
+    pub(crate) fn full_row(&self, used_values: &[f64], scaled: bool) -> Vec<f64> {
+        let mut row = self.mean.clone();
+        for (&c, &v) in self.used.iter().zip(used_values) {
+            row[c] = if scaled { (v - self.mean[c]) / self.weight[c] + self.mean[c] } else { v };
+        }
+        row
+    }
+}
+
+fn label_data(labeled: &LabeledFrames, scales: &[Scale], path: &std::path::Path) -> StageResult<Vec<LabelData>> {
+    let controls = &labeled.frames.controls;
+    let mut out: Vec<LabelData> = Vec::new();
+    for (r, l) in labeled.label.iter().enumerate() {
+        match out.iter_mut().find(|d| &d.label == l) {
+            Some(d) => d.rows.push(r),
+            None => {
+                let mine: Vec<&Scale> = scales.iter().filter(|s| &s.label == l).collect();
+                let lookup = |c: &String| {
+                    mine.iter().find(|s| &s.control == c).ok_or_else(|| {
+                        StageError::Input(format!(
+                            "{}: no scale for label `{l}`, control `{c}`; rerun scale",
+                            path.display()
+                        ))
+                    })
+                };
+                let per: Vec<&Scale> = controls.iter().map(|c| lookup(c).copied()).collect::<StageResult<_>>()?;
+                out.push(LabelData {
+                    label: l.clone(),
+                    rows: vec![r],
+                    used: (0..controls.len()).filter(|&c| per[c].used).collect(),
+                    mean: per.iter().map(|s| s.mean).collect(),
+                    weight: per.iter().map(|s| s.weight).collect(),
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// A model over all table controls from a PCA over the used ones.
+fn model(data: &LabelData, pca: &Pca, variant: &str, n: usize) -> PcaModel {
+    let d = pca.kept;
+    let mut directions = vec![0.0; d * n];
+    for k in 0..d {
+        for (j, &c) in data.used.iter().enumerate() {
+            directions[k * n + c] = pca.directions[k * data.used.len() + j];
+        }
+    }
+    let mut mean = data.mean.clone();
+    for (j, &c) in data.used.iter().enumerate() {
+        mean[c] = pca.mean[j];
+    }
+    PcaModel {
+        label: data.label.clone(),
+        variant: variant.into(),
+        mean,
+        directions,
+        singular_values: pca.singular_values[..d].to_vec(),
+        explained: pca.explained()[..d].to_vec(),
+    }
+}
+
+/// Runs the stage (or only validates, with `--check`).
+pub fn run(args: &Args) -> StageResult<Option<Summary>> {
+    args.validate()?;
+    if args.check {
+        return Ok(None);
+    }
+    let provenance = reprise_stagekit::provenance("pca", env!("CARGO_PKG_VERSION"), args)
+        .with_input("labeled_frames", &args.labeled_frames)?
+        .with_input("scales", &args.scales)?
+        .with_input("controls", &args.controls)?;
+    let labeled = LabeledFrames::read(&args.labeled_frames)?;
+    let scales = scales::read(&args.scales)?;
+    let rig = if args.mesh_errors {
+        Some(reprise_stagekit::rig::open_rig(&Controls::read(&args.controls)?, &labeled.frames.controls)?)
+    } else {
+        None
+    };
+    let data = label_data(&labeled, &scales, &args.scales)?;
+    let n = labeled.frames.controls.len();
+    let (mut models, mut coords, mut error_rows, mut labels) =
+        (Vec::new(), PcaCoords::default(), Vec::new(), Vec::new());
+    let bar = reprise_stagekit::progress(data.len() as u64, "pca");
+    for d in &data {
+        let fit = |scaled: bool| {
+            Pca::fit(&d.matrix(&labeled, scaled), d.used.len(), &args.params())
+                .map_err(|e| StageError::Numerical(format!("label `{}`: {e}", d.label)))
+        };
+        let (scaled, unscaled) = (fit(true)?, fit(false)?);
+        for (variant, pca) in [(SCALED, &scaled), (UNSCALED, &unscaled)] {
+            if variant == UNSCALED && !args.write_unscaled {
+                continue;
+            }
+            models.push(model(d, pca, variant, n));
+            let z = d.matrix(&labeled, variant == SCALED);
+            for (i, &r) in d.rows.iter().enumerate() {
+                coords.label.push(d.label.clone());
+                coords.variant.push(variant.into());
+                coords.segment_id.push(labeled.segment_id[r]);
+                coords.clip.push(labeled.frames.clip[r].clone());
+                coords.frame.push(labeled.frames.frame[r]);
+                coords.y.push(pca.project(&z[i * d.used.len()..(i + 1) * d.used.len()], pca.kept));
+            }
+        }
+        error_rows.extend(errors::measure(&labeled, d, &scaled, &unscaled, &args.fixed_d, rig.as_ref())?);
+        labels.push(LabelSummary {
+            label: d.label.clone(),
+            frames: d.rows.len(),
+            controls: d.used.len(),
+            d: scaled.kept,
+            explained: scaled.cumulative_explained()[scaled.kept - 1],
+            d_unscaled: unscaled.kept,
+        });
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    pca::write_models(&args.models, &labeled.frames.controls, &models, &provenance)?;
+    pca::write_coords(&args.coords, &coords, &provenance)?;
+    pca::write_errors(&args.errors, &error_rows, &provenance)?;
+    Ok(Some(Summary { labels, errors: error_rows }))
+}
