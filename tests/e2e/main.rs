@@ -7,3 +7,4 @@ mod default_pipeline;
 mod external_rig;
 mod pipeline_errors;
 mod python_readers;
+mod scale_pca;

@@ -64,6 +64,10 @@ pub struct Args {
     /// Clip name for a table without a `clip` column (default: the file's stem).
     #[arg(long)]
     pub clip: Option<String>,
+    /// A rig for a curve table: an external evaluator command (program and arguments,
+    /// comma-separated) speaking reprise's Arrow IPC protocol (see the README).
+    #[arg(long, value_delimiter = ',', value_name = "CMD")]
+    pub external_rig: Vec<String>,
     /// Output: the frame table.
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
@@ -91,6 +95,11 @@ impl Args {
             (None, None) => {
                 return Err(StageError::Config(
                     "nothing to ingest: give --curves FILE or --generate dragon-face".into(),
+                ))
+            }
+            (None, Some(_)) if !self.external_rig.is_empty() => {
+                return Err(StageError::Config(
+                    "--external-rig is for curve tables; a generator brings its own rig".into(),
                 ))
             }
             _ => {}
@@ -185,7 +194,12 @@ fn from_table(args: &Args, path: &std::path::Path) -> StageResult<(Frames, Contr
             }
         })
         .collect();
-    Ok((frames, Controls { controls, rig: RigRef::None }, clips))
+    let rig = if args.external_rig.is_empty() {
+        RigRef::None
+    } else {
+        RigRef::External { command: args.external_rig.clone() }
+    };
+    Ok((frames, Controls { controls, rig }, clips))
 }
 
 #[cfg(test)]

@@ -19,6 +19,7 @@ fn args(dir: &Path, name: &str, text: &str) -> Args {
         fps: 24.0,
         source_fps: None,
         clip: None,
+        external_rig: vec![],
         frames: dir.join("frames.parquet"),
         controls: dir.join("controls.parquet"),
         clips: dir.join("clips.parquet"),
