@@ -49,10 +49,18 @@ pub fn stage_args(stage: &Stage) -> Vec<OsString> {
     args
 }
 
-/// Runs the stage binary `bin` in `dir` and waits for it; `check` appends `--check`.
-pub fn invoke(stage: &Stage, bin: &Path, dir: &Path, check: bool) -> Result<Outcome> {
+/// Environment variable naming the file where a stage writes its resource statistics
+/// (`reprise_stagekit::STATS_ENV`).
+pub const STATS_ENV: &str = "REPRISE_STATS_FILE";
+
+/// Runs the stage binary `bin` in `dir` and waits for it; `check` appends `--check`;
+/// `stats` asks the stage to write its statistics (peak memory) there.
+pub fn invoke(stage: &Stage, bin: &Path, dir: &Path, check: bool, stats: Option<&Path>) -> Result<Outcome> {
     let mut command = Command::new(bin);
     command.args(stage_args(stage)).current_dir(dir).stdin(Stdio::null());
+    if let Some(path) = stats {
+        command.env(STATS_ENV, path);
+    }
     if check {
         command.arg("--check");
     }

@@ -41,6 +41,9 @@ pub struct LockEntry {
     pub finished_at: String,
     /// Wall-clock seconds the stage took.
     pub seconds: f64,
+    /// The stage's peak resident memory (MB), when it reported it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub peak_rss_mb: Option<f64>,
 }
 
 /// The whole lock file.

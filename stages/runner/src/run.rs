@@ -76,7 +76,8 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
         let result = run_stage(&pipeline, stage, bin, &mut hasher);
         match result {
             Ok(entry) => {
-                say(log, &format!("{:>10} {} in {:.2} s", "ran", stage.name, entry.seconds));
+                let peak = entry.peak_rss_mb.map(|mb| format!(", peak memory {mb:.0} MB")).unwrap_or_default();
+                say(log, &format!("{:>10} {} in {:.2} s{peak}", "ran", stage.name, entry.seconds));
                 lock.stages.insert(stage.name.clone(), entry);
                 lock.save(&lock_path)?;
                 ran += 1;
@@ -130,7 +131,7 @@ fn check(pipeline: &Pipeline, bins: &BTreeMap<usize, ResolvedBin>, to_run: &[usi
     let mut code = None;
     for &i in to_run {
         let stage = &pipeline.stages[i];
-        let (why, exit) = match exec::invoke(stage, &bins[&i].path, &pipeline.dir, true)? {
+        let (why, exit) = match exec::invoke(stage, &bins[&i].path, &pipeline.dir, true, None)? {
             Outcome::Success => continue,
             Outcome::Failed(c) => (format!("exit code {c}"), c),
             Outcome::Killed(s) => {
@@ -168,9 +169,18 @@ fn run_stage(pipeline: &Pipeline, stage: &Stage, bin: &ResolvedBin, hasher: &mut
         }
     }
 
+    let stats = pipeline.artifacts.abs.join(format!(".{}.stats.json", stage.name));
+    let _ = std::fs::create_dir_all(&pipeline.artifacts.abs);
+    let _ = std::fs::remove_file(&stats);
     let started = Instant::now();
-    let outcome = exec::invoke(stage, &bin.path, &pipeline.dir, false)?;
+    let outcome = exec::invoke(stage, &bin.path, &pipeline.dir, false, Some(&stats))?;
     let seconds = started.elapsed().as_secs_f64();
+    let peak_rss_mb = std::fs::read_to_string(&stats)
+        .ok()
+        .and_then(|text| serde_json::from_str::<serde_json::Value>(&text).ok())
+        .and_then(|v| v.get("peak_rss_bytes").and_then(serde_json::Value::as_f64))
+        .map(|bytes| bytes / 1_048_576.0);
+    let _ = std::fs::remove_file(&stats);
     match outcome {
         Outcome::Success => {}
         Outcome::Failed(code) => return Err(Error::StageFailed { stage: stage.name.clone(), code }),
@@ -200,6 +210,7 @@ fn run_stage(pipeline: &Pipeline, stage: &Stage, bin: &ResolvedBin, hasher: &mut
         outputs,
         finished_at: crate::clock::rfc3339(SystemTime::now()),
         seconds,
+        peak_rss_mb,
     })
 }
 

@@ -15,16 +15,34 @@ use indicatif::ProgressStyle;
 use reprise_artifact::Provenance;
 use serde::Serialize;
 
+/// Environment variable: where the runner wants a stage's resource statistics, a JSON
+/// object `{"peak_rss_bytes": …}` written when the stage succeeds.
+pub const STATS_ENV: &str = "REPRISE_STATS_FILE";
+
 /// Runs a stage body and exits the process: 0 on success, otherwise the error's code
 /// after printing `<binary>: error: <message>` once to stderr.
 pub fn main(binary: &str, body: impl FnOnce() -> StageResult<()>) -> ! {
     match body() {
-        Ok(()) => std::process::exit(exit::OK),
+        Ok(()) => {
+            if let (Some(path), Some(peak)) = (std::env::var_os(STATS_ENV), peak_rss_bytes()) {
+                let _ = std::fs::write(path, format!("{{\"peak_rss_bytes\": {peak}}}"));
+            }
+            std::process::exit(exit::OK)
+        }
         Err(e) => {
             eprintln!("{binary}: error: {e}");
             std::process::exit(e.code())
         }
     }
+}
+
+/// This process's peak resident memory (`VmHWM` of `/proc/self/status`), where the OS
+/// reports it.
+pub fn peak_rss_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }
 
 /// A provenance record for `stage` at this crate version, with `params` serialised.
