@@ -347,6 +347,7 @@ mod tests {
                     outputs: stage.outputs.iter().map(|(n, path)| (n.clone(), record(path, &mut hasher))).collect(),
                     finished_at: String::new(),
                     seconds: 0.0,
+                    peak_rss_mb: None,
                 };
                 lock.stages.insert(stage.name.clone(), entry);
             }

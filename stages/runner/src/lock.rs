@@ -131,6 +131,7 @@ mod tests {
             outputs: BTreeMap::from([("o".into(), FileRecord { path: "out/o".into(), blake3: "cd".into() })]),
             finished_at: "2025-01-02T03:04:05Z".into(),
             seconds: 0.5,
+            peak_rss_mb: Some(12.5),
         }
     }
 
