@@ -86,3 +86,15 @@ impl Run {
         self.all()
     }
 }
+
+/// A file under `../shared/datasets/`, or `None` (after saying the test is skipped)
+/// where this clone has no `../shared`. In CI the data must be there.
+pub fn shared_dataset(test: &str, rel: &str) -> Option<PathBuf> {
+    let path = repo().join("../shared/datasets").join(rel);
+    if path.exists() {
+        return Some(path.canonicalize().unwrap());
+    }
+    assert!(std::env::var_os("CI").is_none(), "CI must have ../shared/datasets/{rel}");
+    eprintln!("SKIPPED {test}: ../shared/datasets/{rel} not found (a user's clone has no ../shared)");
+    None
+}

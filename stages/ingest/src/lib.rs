@@ -7,6 +7,7 @@
 
 mod curves;
 mod dragon;
+mod imported;
 mod source;
 
 use std::path::PathBuf;
@@ -46,6 +47,10 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
     pub curves: Option<PathBuf>,
+    /// Input: a BVH motion-capture file (one clip; its skeleton becomes the rig).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub bvh: Option<PathBuf>,
     /// Run a built-in generator instead of reading a file.
     #[arg(long, value_enum)]
     pub generate: Option<Generator>,
@@ -87,23 +92,34 @@ pub struct Args {
 }
 
 impl Args {
-    fn validate(&self) -> StageResult<()> {
-        match (&self.curves, self.generate) {
-            (Some(_), Some(_)) => {
-                return Err(StageError::Config("give either --curves or --generate, not both".into()))
-            }
-            (None, None) => {
-                return Err(StageError::Config(
-                    "nothing to ingest: give --curves FILE or --generate dragon-face".into(),
-                ))
-            }
-            (None, Some(_)) if !self.external_rig.is_empty() => {
-                return Err(StageError::Config(
-                    "--external-rig is for curve tables; a generator brings its own rig".into(),
-                ))
-            }
-            _ => {}
+    /// The one source the flags name.
+    fn source(&self) -> StageResult<Source<'_>> {
+        let mut given: Vec<Source<'_>> = Vec::new();
+        if let Some(p) = &self.curves {
+            given.push(Source::Curves(p));
         }
+        if let Some(p) = &self.bvh {
+            given.push(Source::Bvh(p));
+        }
+        if let Some(g) = self.generate {
+            given.push(Source::Generate(g));
+        }
+        if given.len() > 1 {
+            return Err(StageError::Config("give one source: --curves, --bvh or --generate, not several".into()));
+        }
+        let source = given.pop().ok_or_else(|| {
+            StageError::Config("nothing to ingest: give --curves FILE, --bvh FILE or --generate dragon-face".into())
+        })?;
+        if !self.external_rig.is_empty() && !matches!(source, Source::Curves(_)) {
+            return Err(StageError::Config(
+                "--external-rig is for curve tables; this source brings its own rig".into(),
+            ));
+        }
+        Ok(source)
+    }
+
+    fn validate(&self) -> StageResult<()> {
+        self.source()?;
         for (flag, rate) in [("--fps", Some(self.fps)), ("--source-fps", self.source_fps)] {
             if let Some(r) = rate.filter(|r| !(r.is_finite() && *r > 0.0)) {
                 return Err(StageError::Config(format!(
@@ -113,6 +129,13 @@ impl Args {
         }
         Ok(())
     }
+}
+
+/// Where the clips come from.
+enum Source<'a> {
+    Curves(&'a std::path::Path),
+    Bvh(&'a std::path::Path),
+    Generate(Generator),
 }
 
 /// What ingest produced.
@@ -133,13 +156,17 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         return Ok(None);
     }
     let mut provenance = reprise_stagekit::provenance("ingest", env!("CARGO_PKG_VERSION"), args);
-    let (frames, controls, clips) = match (&args.curves, args.generate) {
-        (_, Some(Generator::DragonFace)) => dragon::generate(args.seed),
-        (Some(path), None) => {
+    let (frames, controls, clips) = match args.source()? {
+        Source::Generate(Generator::DragonFace) => dragon::generate(args.seed),
+        Source::Curves(path) => {
             provenance = provenance.with_input("curves", path)?;
             from_table(args, path)?
         }
-        (None, None) => unreachable!("validated above"),
+        Source::Bvh(path) => {
+            provenance = provenance.with_input("bvh", path)?;
+            let hash = provenance.inputs["bvh"].blake3.clone();
+            imported::bvh(path, args.fps, hash).map_err(StageError::Input)?
+        }
     };
     frames.write(&args.frames, &provenance)?;
     controls.write(&args.controls, &provenance)?;

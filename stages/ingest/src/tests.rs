@@ -13,6 +13,7 @@ fn args(dir: &Path, name: &str, text: &str) -> Args {
     std::fs::write(&curves, text).unwrap();
     Args {
         curves: Some(curves),
+        bvh: None,
         generate: None,
         seed: 7,
         layout: Layout::Auto,
@@ -178,7 +179,7 @@ fn flags_are_validated() {
     let dir = tempfile::tempdir().unwrap();
     let mut a = args(dir.path(), "c.csv", "frame,v\n0,1\n");
     a.generate = Some(crate::Generator::DragonFace);
-    assert!(run(&a).unwrap_err().to_string().contains("not both"));
+    assert!(run(&a).unwrap_err().to_string().contains("not several"));
     a.generate = None;
     a.fps = 0.0;
     assert_eq!(run(&a).unwrap_err().code(), reprise_stagekit::exit::CONFIG);

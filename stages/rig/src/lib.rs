@@ -1,7 +1,8 @@
 //! The rig evaluator `e(p)` of the paper: a control vector `p` in, mesh vertex positions
 //! out. Scaling, every mesh-space metric and every picture go through [`Rig`].
 //!
-//! Implementations: the built-in dragon-face rig ([`dragon`]), an external process
+//! Implementations: the built-in dragon-face rig ([`dragon`]), BVH skeletons
+//! ([`skeleton`]), an external process
 //! speaking Arrow IPC ([`external`]), and a linear example rig ([`linear`]) that is both
 //! the protocol's reference evaluator and a rig with analytic answers for tests.
 //! [`open`] rebuilds the rig an artifact names ([`RigRef`]), so every stage evaluates
@@ -13,6 +14,7 @@ pub mod error;
 pub mod external;
 pub mod linear;
 pub mod pose;
+pub mod skeleton;
 
 use std::path::Path;
 
@@ -73,9 +75,10 @@ pub fn open(rig: &RigRef, base: &Path, controls: &[String], rest: &[f64]) -> Res
         RigRef::External { command } => {
             Ok(Box::new(external::ExternalRig::spawn(command, base, controls.to_vec(), rest.to_vec())?))
         }
-        RigRef::Gltf { path, .. } | RigRef::Bvh { path, .. } => Err(RigError::Open {
+        RigRef::Bvh { path, blake3 } => Ok(Box::new(skeleton::BvhSkeleton::open(base, path, blake3)?)),
+        RigRef::Gltf { path, .. } => Err(RigError::Open {
             rig: path.clone(),
-            message: "glTF and BVH rig evaluation is not built yet (issue 3 in progress)".into(),
+            message: "glTF rig evaluation is not built yet (issue 3 in progress)".into(),
         }),
         RigRef::None => Err(RigError::Open {
             rig: "none".into(),
