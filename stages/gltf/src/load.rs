@@ -1,0 +1,105 @@
+//! Reading a `.gltf`/`.glb` file and its buffers, without touching images.
+//!
+//! Buffers come from the GLB binary chunk, from base64 `data:` URIs, or from files next to
+//! the `.gltf` (relative URIs). Nothing is fetched from the network and no image is decoded.
+
+use std::path::{Path, PathBuf};
+
+use base64::Engine as _;
+use gltf::json::validation::Validate as _;
+
+use crate::error::GltfError;
+
+/// Required extensions that do not change geometry, skinning or animation data, so a
+/// reader that ignores materials, textures and lights can honour them by ignoring them.
+/// Anything else in `extensionsRequired` (e.g. `KHR_draco_mesh_compression`,
+/// `EXT_meshopt_compression`, `KHR_mesh_quantization`) is refused by name.
+fn extension_is_harmless(name: &str) -> bool {
+    name.starts_with("KHR_materials_")
+        || matches!(
+            name,
+            "KHR_texture_transform"
+                | "KHR_texture_basisu"
+                | "EXT_texture_webp"
+                | "EXT_texture_avif"
+                | "MSFT_texture_dds"
+                | "KHR_lights_punctual"
+        )
+}
+
+/// A parsed, validated document with its buffers loaded.
+pub(crate) struct Loaded {
+    pub path: PathBuf,
+    pub doc: gltf::Document,
+    pub buffers: Vec<Vec<u8>>,
+}
+
+impl Loaded {
+    /// Buffer accessor for the `gltf` crate's readers.
+    pub fn buffer(&self, b: gltf::Buffer<'_>) -> Option<&[u8]> {
+        self.buffers.get(b.index()).map(Vec::as_slice)
+    }
+}
+
+/// Reads and validates `path`, refusing unsupported required extensions by name.
+pub(crate) fn load(path: &Path) -> Result<Loaded, GltfError> {
+    let bytes = std::fs::read(path).map_err(|source| GltfError::Io {
+        path: path.to_path_buf(),
+        what: "the file".into(),
+        source,
+    })?;
+    let parse_err = |e: gltf::Error| GltfError::Parse { path: path.to_path_buf(), reason: e.to_string() };
+    let gltf::Gltf { document: doc, blob } = gltf::Gltf::from_slice_without_validation(&bytes).map_err(parse_err)?;
+
+    if let Some(ext) = doc.extensions_required().find(|e| !extension_is_harmless(e)) {
+        return Err(GltfError::UnsupportedExtension { path: path.to_path_buf(), extension: ext.to_string() });
+    }
+    // The crate's own validation (index bounds etc.), minus its complaint about required
+    // extensions it was not compiled with: those were vetted above.
+    let root = doc.as_json();
+    let mut problems = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |p, e| {
+        let p = p();
+        if !p.as_str().starts_with("extensionsRequired") {
+            problems.push(format!("{}: {e}", p.as_str()));
+        }
+    });
+    if !problems.is_empty() {
+        return Err(GltfError::Parse { path: path.to_path_buf(), reason: problems.join("; ") });
+    }
+
+    let buffers = doc.buffers().map(|b| load_buffer(path, &b, blob.as_deref())).collect::<Result<Vec<_>, _>>()?;
+    Ok(Loaded { path: path.to_path_buf(), doc, buffers })
+}
+
+fn load_buffer(path: &Path, b: &gltf::Buffer<'_>, blob: Option<&[u8]>) -> Result<Vec<u8>, GltfError> {
+    let err = |reason: String| GltfError::Buffer { path: path.to_path_buf(), index: b.index(), reason };
+    let mut data = match b.source() {
+        gltf::buffer::Source::Bin => {
+            blob.ok_or_else(|| err("refers to the GLB binary chunk, which is absent".into()))?.to_vec()
+        }
+        gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
+            let (_, payload) =
+                uri.split_once(";base64,").ok_or_else(|| err("data URI is not base64-encoded".into()))?;
+            base64::engine::general_purpose::STANDARD
+                .decode(payload)
+                .map_err(|e| err(format!("bad base64 in data URI: {e}")))?
+        }
+        gltf::buffer::Source::Uri(uri) => {
+            if uri.contains("://") {
+                return Err(err(format!("URI '{uri}' is not a local file (nothing is downloaded)")));
+            }
+            let file = path.parent().unwrap_or(Path::new(".")).join(uri);
+            std::fs::read(&file).map_err(|source| GltfError::Io {
+                path: path.to_path_buf(),
+                what: format!("buffer {} ({})", b.index(), file.display()),
+                source,
+            })?
+        }
+    };
+    if data.len() < b.length() {
+        return Err(err(format!("declares {} bytes but only {} are present", b.length(), data.len())));
+    }
+    data.truncate(b.length());
+    Ok(data)
+}
