@@ -8,4 +8,5 @@ mod default_pipeline;
 mod external_rig;
 mod pipeline_errors;
 mod python_readers;
+mod robot_pipeline;
 mod scale_pca;

@@ -96,3 +96,27 @@ pub(crate) fn bvh(path: &std::path::Path, fps: f64, blake3: String) -> Result<(F
     let source = path.display().to_string();
     Ok(tables(fps, controls, vec![clip], &source, RigRef::Bvh { path: source.clone(), blake3 }))
 }
+
+/// A glTF file: one clip per named animation; its skins and morph targets are the rig.
+pub(crate) fn gltf(path: &std::path::Path, fps: f64, blake3: String) -> Result<(Frames, Controls, Vec<Clip>), String> {
+    let curves = reprise_gltf::ingest(path, fps).map_err(|e| e.to_string())?;
+    let controls = curves
+        .controls
+        .into_iter()
+        .map(|c| ImportedControl {
+            name: c.name,
+            group: c.group,
+            unit: c.unit,
+            default: c.default,
+            min: c.min,
+            max: c.max,
+        })
+        .collect();
+    let clips = curves
+        .clips
+        .into_iter()
+        .map(|c| ImportedClip { name: c.name, frames: c.frames, source_fps: c.source_fps, values: c.values })
+        .collect();
+    let source = path.display().to_string();
+    Ok(tables(fps, controls, clips, &source, RigRef::Gltf { path: source.clone(), blake3 }))
+}

@@ -47,6 +47,10 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
     pub curves: Option<PathBuf>,
+    /// Input: a glTF 2.0 character (.glb/.gltf): each named animation becomes a clip; its skins and morph targets are the rig.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub gltf: Option<PathBuf>,
     /// Input: a BVH motion-capture file (one clip; its skeleton becomes the rig).
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
@@ -101,14 +105,21 @@ impl Args {
         if let Some(p) = &self.bvh {
             given.push(Source::Bvh(p));
         }
+        if let Some(p) = &self.gltf {
+            given.push(Source::Gltf(p));
+        }
         if let Some(g) = self.generate {
             given.push(Source::Generate(g));
         }
         if given.len() > 1 {
-            return Err(StageError::Config("give one source: --curves, --bvh or --generate, not several".into()));
+            return Err(StageError::Config(
+                "give one source: --curves, --gltf, --bvh or --generate, not several".into(),
+            ));
         }
         let source = given.pop().ok_or_else(|| {
-            StageError::Config("nothing to ingest: give --curves FILE, --bvh FILE or --generate dragon-face".into())
+            StageError::Config(
+                "nothing to ingest: give --curves FILE, --gltf FILE, --bvh FILE or --generate dragon-face".into(),
+            )
         })?;
         if !self.external_rig.is_empty() && !matches!(source, Source::Curves(_)) {
             return Err(StageError::Config(
@@ -135,6 +146,7 @@ impl Args {
 enum Source<'a> {
     Curves(&'a std::path::Path),
     Bvh(&'a std::path::Path),
+    Gltf(&'a std::path::Path),
     Generate(Generator),
 }
 
@@ -166,6 +178,11 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
             provenance = provenance.with_input("bvh", path)?;
             let hash = provenance.inputs["bvh"].blake3.clone();
             imported::bvh(path, args.fps, hash).map_err(StageError::Input)?
+        }
+        Source::Gltf(path) => {
+            provenance = provenance.with_input("gltf", path)?;
+            let hash = provenance.inputs["gltf"].blake3.clone();
+            imported::gltf(path, args.fps, hash).map_err(StageError::Input)?
         }
     };
     frames.write(&args.frames, &provenance)?;

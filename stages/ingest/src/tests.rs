@@ -14,6 +14,7 @@ fn args(dir: &Path, name: &str, text: &str) -> Args {
     Args {
         curves: Some(curves),
         bvh: None,
+        gltf: None,
         generate: None,
         seed: 7,
         layout: Layout::Auto,

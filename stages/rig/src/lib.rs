@@ -1,8 +1,8 @@
 //! The rig evaluator `e(p)` of the paper: a control vector `p` in, mesh vertex positions
 //! out. Scaling, every mesh-space metric and every picture go through [`Rig`].
 //!
-//! Implementations: the built-in dragon-face rig ([`dragon`]), BVH skeletons
-//! ([`skeleton`]), an external process
+//! Implementations: the built-in dragon-face rig ([`dragon`]), glTF characters and BVH
+//! skeletons ([`skeleton`]), an external process
 //! speaking Arrow IPC ([`external`]), and a linear example rig ([`linear`]) that is both
 //! the protocol's reference evaluator and a rig with analytic answers for tests.
 //! [`open`] rebuilds the rig an artifact names ([`RigRef`]), so every stage evaluates
@@ -76,10 +76,7 @@ pub fn open(rig: &RigRef, base: &Path, controls: &[String], rest: &[f64]) -> Res
             Ok(Box::new(external::ExternalRig::spawn(command, base, controls.to_vec(), rest.to_vec())?))
         }
         RigRef::Bvh { path, blake3 } => Ok(Box::new(skeleton::BvhSkeleton::open(base, path, blake3)?)),
-        RigRef::Gltf { path, .. } => Err(RigError::Open {
-            rig: path.clone(),
-            message: "glTF rig evaluation is not built yet (issue 3 in progress)".into(),
-        }),
+        RigRef::Gltf { path, blake3 } => Ok(Box::new(skeleton::GltfCharacter::open(base, path, blake3)?)),
         RigRef::None => Err(RigError::Open {
             rig: "none".into(),
             message: "the controls table names no rig (curve tables carry none); mesh-space stages need one: \

@@ -129,6 +129,17 @@ fn rigs(args: &Args, dir: &Path) -> Result<()> {
     } else {
         println!("| CMU BVH | skipped: ../shared/datasets not found | | |");
     }
+    let robot = args.repo.join("../shared/datasets/robot_expressive/RobotExpressive.glb");
+    if robot.exists() {
+        let hash = reprise_artifact::provenance::hash_file(&robot)?;
+        let path = robot.canonicalize()?.display().to_string();
+        let rig = reprise_rig::skeleton::GltfCharacter::open(Path::new("/"), &path, &hash)?;
+        let poses: Vec<f64> = (0..500).flat_map(|_| rig.rest_pose()).collect();
+        let r = rate(&rig, &poses)?;
+        println!("| RobotExpressive (glTF) | {} | {} | {r:.0} |", rig.control_names().len(), rig.vertex_count());
+    } else {
+        println!("| RobotExpressive | skipped: ../shared/datasets not found | | |");
+    }
     println!();
     Ok(())
 }
