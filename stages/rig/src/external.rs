@@ -48,6 +48,8 @@ pub struct ExternalRig {
     timeout: Duration,
     session: Mutex<Session>,
     stderr: Arc<Mutex<String>>,
+    /// Set by the stderr reader once the evaluator closed its stderr.
+    stderr_done: Arc<std::sync::atomic::AtomicBool>,
 }
 
 impl ExternalRig {
@@ -83,6 +85,8 @@ impl ExternalRig {
         let stderr = Arc::new(Mutex::new(String::new()));
         let mut err_pipe = child.stderr.take().expect("stderr is piped");
         let sink = stderr.clone();
+        let stderr_done = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let done = stderr_done.clone();
         std::thread::spawn(move || {
             let mut buf = [0u8; 4096];
             while let Ok(n) = err_pipe.read(&mut buf) {
@@ -97,6 +101,7 @@ impl ExternalRig {
                     s.replace_range(..cut, "…");
                 }
             }
+            done.store(true, std::sync::atomic::Ordering::Release);
         });
         let stdout = child.stdout.take().expect("stdout is piped");
         let (tx, replies) = std::sync::mpsc::channel();
@@ -125,6 +130,7 @@ impl ExternalRig {
             timeout,
             session: Mutex::new(Session { child, writer: Some(writer), replies }),
             stderr,
+            stderr_done,
         };
         let reply = rig.exchange(&rig.rest.clone())?;
         rig.vertices = reply.len() / 3;
@@ -132,6 +138,18 @@ impl ExternalRig {
             return Err(rig.error(format!("the rest pose gave {} values, not a positive multiple of 3", reply.len())));
         }
         Ok(rig)
+    }
+
+    /// An error about an evaluator that has exited: waits (briefly) until its last words
+    /// on stderr have been read, so the message carries them.
+    fn exited(&self, message: String) -> RigError {
+        for _ in 0..200 {
+            if self.stderr_done.load(std::sync::atomic::Ordering::Acquire) {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        self.error(message)
     }
 
     fn error(&self, message: String) -> RigError {
@@ -151,8 +169,8 @@ impl ExternalRig {
         let mut session = self.session.lock().map_err(|_| self.error("a previous evaluation panicked".into()))?;
         let sent = session.writer.as_mut().map(|w| w.write(&batch).and_then(|()| Ok(w.get_mut().flush()?)));
         if let Some(Err(e)) = sent {
-            let status = session.child.try_wait().ok().flatten();
-            return Err(self.error(format!("could not send poses ({e}); exit status {status:?}")));
+            let status = session.child.wait().map(|s| s.to_string()).unwrap_or_else(|e| e.to_string());
+            return Err(self.exited(format!("it stopped reading before answering ({status}; {e})")));
         }
         let reply = match session.replies.recv_timeout(self.timeout) {
             Ok(Ok(batch)) => batch,
@@ -163,7 +181,7 @@ impl ExternalRig {
             }
             Err(RecvTimeoutError::Disconnected) => {
                 let status = session.child.wait().map(|s| s.to_string()).unwrap_or_else(|e| e.to_string());
-                return Err(self.error(format!("it ended its output before answering ({status})")));
+                return Err(self.exited(format!("it ended its output before answering ({status})")));
             }
         };
         drop(session);
