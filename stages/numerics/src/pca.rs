@@ -90,7 +90,7 @@ impl Pca {
     /// Fits PCA to `z` (row-major, `cols` columns).
     pub fn fit(z: &[f64], cols: usize, params: &PcaParams) -> Result<Self, PcaError> {
         params.check()?;
-        if cols == 0 || z.len() % cols != 0 || z.len() / cols < 2 {
+        if cols == 0 || !z.len().is_multiple_of(cols) || z.len() / cols < 2 {
             return Err(PcaError::Shape { values: z.len(), cols });
         }
         let rows = z.len() / cols;

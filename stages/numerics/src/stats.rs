@@ -3,7 +3,7 @@
 /// Per-column mean and sample standard deviation (divisor `N − 1`; 0 for `N < 2`) of a
 /// row-major `rows × cols` matrix.
 pub fn mean_std(values: &[f64], cols: usize) -> (Vec<f64>, Vec<f64>) {
-    let rows = if cols == 0 { 0 } else { values.len() / cols };
+    let rows = values.len().checked_div(cols).unwrap_or(0);
     let mut mean = vec![0.0; cols];
     for row in values.chunks(cols.max(1)) {
         for (m, v) in mean.iter_mut().zip(row) {

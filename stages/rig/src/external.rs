@@ -237,7 +237,7 @@ impl Rig for ExternalRig {
     }
     fn evaluate_batch(&self, poses: &[f64], out: &mut [f64]) -> Result<(), RigError> {
         let n = self.names.len();
-        if n == 0 || poses.len() % n != 0 || out.len() != poses.len() / n * 3 * self.vertices {
+        if n == 0 || !poses.len().is_multiple_of(n) || out.len() != poses.len() / n * 3 * self.vertices {
             return Err(RigError::BatchShape { rig: self.describe(), values: poses.len(), controls: n });
         }
         // Large batches go in chunks so one reply never holds more than ~64 MB.

@@ -59,7 +59,7 @@ pub fn par_batch(
     eval: impl Fn(&[f64], &mut [f64]) + Sync,
 ) -> Result<(), RigError> {
     let (n, m) = (rig.control_names().len(), 3 * rig.vertex_count());
-    if n == 0 || poses.len() % n != 0 || out.len() != poses.len() / n * m {
+    if n == 0 || !poses.len().is_multiple_of(n) || out.len() != poses.len() / n * m {
         return Err(RigError::BatchShape { rig: rig.describe(), values: poses.len(), controls: n });
     }
     poses.par_chunks(n).zip(out.par_chunks_mut(m)).for_each(|(p, o)| eval(p, o));

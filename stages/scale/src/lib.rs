@@ -55,7 +55,8 @@ impl Args {
         if self.steps.is_empty() || self.steps.iter().any(|n| *n == 0.0 || !n.is_finite()) {
             return Err(StageError::Config(format!("--steps must be finite and nonzero, got {:?}", self.steps)));
         }
-        if self.batch == 0 || !(self.min_std >= 0.0) || !(self.min_displacement >= 0.0) {
+        let non_negative = |x: f64| x >= 0.0; // false for NaN too
+        if self.batch == 0 || !non_negative(self.min_std) || !non_negative(self.min_displacement) {
             return Err(StageError::Config("--batch must be positive, --min-std and --min-displacement >= 0".into()));
         }
         Ok(())
