@@ -202,61 +202,106 @@ fn coarse_recipes(mesh: &Mesh, lm: &Landmarks) -> Vec<(String, Vec<Bump>)> {
         let upper_lid = add(eye.centre, scale(normalize(add(eye.axis, eye.up)), eye.radius + 0.3));
         let lower_lid = add(eye.centre, scale(normalize(sub(eye.axis, scale(eye.up, 0.8))), eye.radius + 0.3));
         let canine = lm.surf(mesh, -2.0, sx * 0.35);
-        put(format!("smile_{s}"), vec![
-            bump(corner, 4.5, 1.6, fixed([sx * 0.35, 0.8, -0.45]), Head),
-            bump(cheek, 4.0, 0.5, Dir::Normal, Head),
-        ]);
+        put(
+            format!("smile_{s}"),
+            vec![
+                bump(corner, 4.5, 1.6, fixed([sx * 0.35, 0.8, -0.45]), Head),
+                bump(cheek, 4.0, 0.5, Dir::Normal, Head),
+            ],
+        );
         put(format!("frown_{s}"), vec![bump(corner, 4.5, 1.2, fixed([sx * 0.1, -1.0, 0.0]), Head)]);
         put(format!("snarl_{s}"), vec![bump(canine, 3.5, 1.4, fixed([0.0, 1.0, 0.2]), Above)]);
         put(format!("cheek_puff_{s}"), vec![bump(cheek, 4.5, 1.5, Dir::Normal, Head)]);
-        put(format!("cheek_raise_{s}"), vec![bump(lm.surf(mesh, -9.0, sx * (lm.mouth_phi + 0.3)), 3.5, 1.0, fixed([0.0, 1.0, 0.3]), Head)]);
+        put(
+            format!("cheek_raise_{s}"),
+            vec![bump(lm.surf(mesh, -9.0, sx * (lm.mouth_phi + 0.3)), 3.5, 1.0, fixed([0.0, 1.0, 0.3]), Head)],
+        );
         put(format!("cheek_suck_{s}"), vec![bump(cheek, 3.5, -0.9, Dir::Normal, Head)]);
         put(format!("mouth_wide_{s}"), vec![bump(corner, 4.0, 1.2, fixed([sx, 0.0, -0.2]), Head)]);
         put(format!("mouth_narrow_{s}"), vec![bump(corner, 4.0, 1.0, fixed([-sx, 0.0, 0.3]), Head)]);
-        put(format!("nose_wrinkle_{s}"), vec![
-            bump(mesh.params.surface(0.40 * PI, sx * 0.25), 3.0, 0.8, fixed([0.0, 1.0, -0.3]), Head),
-            bump(mesh.params.surface(0.40 * PI, sx * 0.25), 2.0, 0.3, Dir::Normal, Head),
-        ]);
-        put(format!("upper_lip_raise_{s}"), vec![bump(lm.surf(mesh, -1.0, sx * 0.25), 3.0, 1.0, fixed([0.0, 1.0, 0.0]), Above)]);
-        put(format!("lower_lip_depress_{s}"), vec![bump(lm.surf(mesh, 2.0, sx * 0.25), 3.0, 1.0, fixed([0.0, -1.0, 0.0]), Below)]);
+        put(
+            format!("nose_wrinkle_{s}"),
+            vec![
+                bump(mesh.params.surface(0.40 * PI, sx * 0.25), 3.0, 0.8, fixed([0.0, 1.0, -0.3]), Head),
+                bump(mesh.params.surface(0.40 * PI, sx * 0.25), 2.0, 0.3, Dir::Normal, Head),
+            ],
+        );
+        put(
+            format!("upper_lip_raise_{s}"),
+            vec![bump(lm.surf(mesh, -1.0, sx * 0.25), 3.0, 1.0, fixed([0.0, 1.0, 0.0]), Above)],
+        );
+        put(
+            format!("lower_lip_depress_{s}"),
+            vec![bump(lm.surf(mesh, 2.0, sx * 0.25), 3.0, 1.0, fixed([0.0, -1.0, 0.0]), Below)],
+        );
         put(format!("squint_{s}"), vec![bump(lower_lid, 2.5, 0.6, fixed([0.0, 1.0, 0.0]), Head)]);
         put(format!("eye_wide_{s}"), vec![bump(upper_lid, 2.5, 0.6, fixed([0.0, 1.0, 0.0]), Head)]);
-        put(format!("dimple_{s}"), vec![bump(lm.surf(mesh, 1.0, sx * (lm.mouth_phi + 0.15)), 1.8, -0.5, Dir::Normal, Head)]);
+        put(
+            format!("dimple_{s}"),
+            vec![bump(lm.surf(mesh, 1.0, sx * (lm.mouth_phi + 0.15)), 1.8, -0.5, Dir::Normal, Head)],
+        );
         put(format!("lip_stretch_{s}"), vec![bump(corner, 4.0, 1.0, fixed([sx, -0.3, -0.3]), Head)]);
-        put(format!("jowl_{s}"), vec![
-            bump(lm.surf(mesh, 10.0, sx * 1.0), 5.0, 0.6, fixed([0.0, -1.0, 0.0]), Head),
-            bump(lm.surf(mesh, 10.0, sx * 1.0), 5.0, 0.4, Dir::Normal, Head),
-        ]);
-        put(format!("brow_up_{s}"), vec![bump(lm.brow(mesh, side, 0.0), 4.0, 1.2, fixed([0.0, 1.0, 0.0]), Head)]);
-        put(format!("brow_down_{s}"), vec![bump(lm.brow(mesh, side, 0.0), 4.0, 1.0, fixed([0.0, -1.0, 0.3]), Head)]);
-        put(format!("brow_squeeze_{s}"), vec![bump(lm.brow(mesh, side, -1.0), 3.5, 0.8, fixed([-sx, -0.2, 0.0]), Head)]);
-        put(format!("eye_{s}_dilate"), vec![bump(add(eye.centre, [0.0, 0.0, eye.radius]), 1.3, 0.1, Dir::Normal, Eye(side))]);
+        put(
+            format!("jowl_{s}"),
+            vec![
+                bump(lm.surf(mesh, 10.0, sx * 1.0), 5.0, 0.6, fixed([0.0, -1.0, 0.0]), Head),
+                bump(lm.surf(mesh, 10.0, sx * 1.0), 5.0, 0.4, Dir::Normal, Head),
+            ],
+        );
+        put(format!("brow_up_{s}"), vec![bump(lm.brow(mesh, side, 0.0), 5.0, 1.0, fixed([0.0, 1.0, 0.0]), Head)]);
+        put(format!("brow_down_{s}"), vec![bump(lm.brow(mesh, side, 0.0), 5.0, 0.9, fixed([0.0, -1.0, 0.3]), Head)]);
+        put(
+            format!("brow_squeeze_{s}"),
+            vec![bump(lm.brow(mesh, side, -1.0), 3.5, 0.8, fixed([-sx, -0.2, 0.0]), Head)],
+        );
+        put(
+            format!("eye_{s}_dilate"),
+            vec![bump(add(eye.centre, [0.0, 0.0, eye.radius]), 1.3, 0.1, Dir::Normal, Eye(side))],
+        );
     }
     put("jaw_open_shape".into(), vec![bump(chin, 9.0, 1.8, fixed([0.0, -1.0, -0.25]), Below)]);
-    put("lip_pucker".into(), vec![
-        bump(upper_mid, 5.0, 1.2, fixed([0.0, 0.0, 1.0]), Above),
-        bump(lower_mid, 5.0, 1.2, fixed([0.0, 0.0, 1.0]), Below),
-        bump(upper_mid, 6.0, -0.8, Dir::Lateral, Head),
-    ]);
-    put("lip_funnel".into(), vec![
-        bump(upper_mid, 4.5, 1.0, fixed([0.0, 0.3, 1.0]), Above),
-        bump(lower_mid, 4.5, 1.0, fixed([0.0, -0.3, 1.0]), Below),
-    ]);
-    put("lip_press".into(), vec![
-        bump(upper_mid, 5.0, 0.4, fixed([0.0, -1.0, 0.0]), Above),
-        bump(lower_mid, 5.0, 0.4, fixed([0.0, 1.0, 0.0]), Below),
-    ]);
+    put(
+        "lip_pucker".into(),
+        vec![
+            bump(upper_mid, 5.0, 1.2, fixed([0.0, 0.0, 1.0]), Above),
+            bump(lower_mid, 5.0, 1.2, fixed([0.0, 0.0, 1.0]), Below),
+            bump(upper_mid, 6.0, -0.8, Dir::Lateral, Head),
+        ],
+    );
+    put(
+        "lip_funnel".into(),
+        vec![
+            bump(upper_mid, 4.5, 1.0, fixed([0.0, 0.3, 1.0]), Above),
+            bump(lower_mid, 4.5, 1.0, fixed([0.0, -0.3, 1.0]), Below),
+        ],
+    );
+    put(
+        "lip_press".into(),
+        vec![
+            bump(upper_mid, 5.0, 0.4, fixed([0.0, -1.0, 0.0]), Above),
+            bump(lower_mid, 5.0, 0.4, fixed([0.0, 1.0, 0.0]), Below),
+        ],
+    );
     put("lip_roll_upper".into(), vec![bump(upper_mid, 4.5, -0.5, Dir::Normal, Above)]);
     put("lip_roll_lower".into(), vec![bump(lower_mid, 4.5, -0.5, Dir::Normal, Below)]);
     put("mouth_left".into(), vec![bump(upper_mid, 7.0, 1.2, fixed([1.0, 0.0, 0.0]), Head)]);
     put("mouth_right".into(), vec![bump(upper_mid, 7.0, 1.2, fixed([-1.0, 0.0, 0.0]), Head)]);
     put("chin_raise".into(), vec![bump(chin, 4.0, 0.8, fixed([0.0, 0.6, 0.8]), Below)]);
-    put("throat_swallow".into(), vec![bump(mesh.params.surface(0.88 * PI, PI), 5.0, 0.8, fixed([0.0, 1.0, 0.0]), Head)]);
-    put("snout_scrunch".into(), vec![
-        bump(mesh.params.surface(0.5 * PI, 0.0), 5.0, 1.0, fixed([0.0, 0.0, -1.0]), Head),
-        bump(mesh.params.surface(0.42 * PI, 0.0), 4.0, 0.4, fixed([0.0, 1.0, 0.0]), Head),
-    ]);
-    put("forehead_raise".into(), vec![bump(mesh.params.surface(0.15 * PI, 0.0), 7.0, 0.8, fixed([0.0, 1.0, 0.0]), Head)]);
+    put(
+        "throat_swallow".into(),
+        vec![bump(mesh.params.surface(0.88 * PI, PI), 5.0, 0.8, fixed([0.0, 1.0, 0.0]), Head)],
+    );
+    put(
+        "snout_scrunch".into(),
+        vec![
+            bump(mesh.params.surface(0.5 * PI, 0.0), 5.0, 1.0, fixed([0.0, 0.0, -1.0]), Head),
+            bump(mesh.params.surface(0.42 * PI, 0.0), 4.0, 0.4, fixed([0.0, 1.0, 0.0]), Head),
+        ],
+    );
+    put(
+        "forehead_raise".into(),
+        vec![bump(mesh.params.surface(0.15 * PI, 0.0), 7.0, 0.8, fixed([0.0, 1.0, 0.0]), Head)],
+    );
     let mut clench = Vec::new();
     for (_, sx) in SIDES {
         clench.push(bump(lm.surf(mesh, -2.0, sx * 1.5), 3.5, 0.5, Dir::Normal, Head));
@@ -369,7 +414,10 @@ fn correctives(mesh: &Mesh, lm: &Landmarks, index: &dyn Fn(&str) -> usize) -> Ve
     put(vec![jaw, sl("lip_pucker")], vec![bump(lm.surf(mesh, 0.0, 0.0), 4.0, 0.5, fixed([0.0, 0.0, 1.0]), Mask::Head)]);
     for (side, &(s, sx)) in SIDES.iter().enumerate() {
         let corner = lm.corner(mesh, sx);
-        put(vec![jaw, sl(&format!("smile_{s}"))], vec![bump(corner, 3.5, 0.6, fixed([sx * 0.3, 0.4, 0.2]), Mask::Head)]);
+        put(
+            vec![jaw, sl(&format!("smile_{s}"))],
+            vec![bump(corner, 3.5, 0.6, fixed([sx * 0.3, 0.4, 0.2]), Mask::Head)],
+        );
         put(vec![jaw, sl(&format!("frown_{s}"))], vec![bump(corner, 3.5, 0.4, fixed([0.0, 0.4, 0.1]), Mask::Head)]);
         put(
             vec![sl(&format!("brow_up_{s}")), sl(&format!("brow_down_{s}"))],

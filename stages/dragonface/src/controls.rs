@@ -44,14 +44,50 @@ pub(crate) const SIDES: [(&str, f64); 2] = [("L", 1.0), ("R", -1.0)];
 
 /// The coarse (intermediate) blendshape sliders, 0..1.
 pub(crate) const COARSE_SHAPES: [&str; 44] = [
-    "smile_L", "smile_R", "frown_L", "frown_R", "snarl_L", "snarl_R", "jaw_open_shape",
-    "cheek_puff_L", "cheek_puff_R", "cheek_raise_L", "cheek_raise_R", "cheek_suck_L",
-    "cheek_suck_R", "lip_pucker", "lip_funnel", "lip_press", "lip_roll_upper", "lip_roll_lower",
-    "mouth_wide_L", "mouth_wide_R", "mouth_narrow_L", "mouth_narrow_R", "mouth_left",
-    "mouth_right", "nose_wrinkle_L", "nose_wrinkle_R", "upper_lip_raise_L", "upper_lip_raise_R",
-    "lower_lip_depress_L", "lower_lip_depress_R", "squint_L", "squint_R", "eye_wide_L",
-    "eye_wide_R", "chin_raise", "dimple_L", "dimple_R", "lip_stretch_L", "lip_stretch_R",
-    "jowl_L", "jowl_R", "throat_swallow", "snout_scrunch", "forehead_raise",
+    "smile_L",
+    "smile_R",
+    "frown_L",
+    "frown_R",
+    "snarl_L",
+    "snarl_R",
+    "jaw_open_shape",
+    "cheek_puff_L",
+    "cheek_puff_R",
+    "cheek_raise_L",
+    "cheek_raise_R",
+    "cheek_suck_L",
+    "cheek_suck_R",
+    "lip_pucker",
+    "lip_funnel",
+    "lip_press",
+    "lip_roll_upper",
+    "lip_roll_lower",
+    "mouth_wide_L",
+    "mouth_wide_R",
+    "mouth_narrow_L",
+    "mouth_narrow_R",
+    "mouth_left",
+    "mouth_right",
+    "nose_wrinkle_L",
+    "nose_wrinkle_R",
+    "upper_lip_raise_L",
+    "upper_lip_raise_R",
+    "lower_lip_depress_L",
+    "lower_lip_depress_R",
+    "squint_L",
+    "squint_R",
+    "eye_wide_L",
+    "eye_wide_R",
+    "chin_raise",
+    "dimple_L",
+    "dimple_R",
+    "lip_stretch_L",
+    "lip_stretch_R",
+    "jowl_L",
+    "jowl_R",
+    "throat_swallow",
+    "snout_scrunch",
+    "forehead_raise",
 ];
 
 /// A family of fine blendshapes: `count` localised bumps along a facial feature, each in
@@ -120,9 +156,8 @@ pub(crate) fn lattice_name(i: usize, j: usize, k: usize, axis: usize) -> String 
 }
 
 /// Tweak regions: small cm offsets that exist on the rig but are never animated.
-pub(crate) const TWEAK_REGIONS: [&str; 8] = [
-    "brow_L", "brow_R", "cheek_L", "cheek_R", "snout", "chin", "mouth_corner_L", "mouth_corner_R",
-];
+pub(crate) const TWEAK_REGIONS: [&str; 8] =
+    ["brow_L", "brow_R", "cheek_L", "cheek_R", "snout", "chin", "mouth_corner_L", "mouth_corner_R"];
 
 /// Ear chain length (bones per ear) and tongue chain length.
 pub(crate) const EAR_BONES: usize = 5;
@@ -133,14 +168,7 @@ struct Builder(Vec<ControlSpec>);
 
 impl Builder {
     fn push(&mut self, name: impl Into<String>, group: &str, unit: Unit, min: f64, max: f64) {
-        self.0.push(ControlSpec {
-            name: name.into(),
-            group: group.to_string(),
-            unit,
-            default: 0.0,
-            min,
-            max,
-        });
+        self.0.push(ControlSpec { name: name.into(), group: group.to_string(), unit, default: 0.0, min, max });
     }
     fn rot3(&mut self, base: &str, group: &str, lim: [f64; 3]) {
         for (ax, l) in ["rx", "ry", "rz"].iter().zip(lim) {
@@ -259,11 +287,7 @@ mod tests {
         for s in &c {
             *groups.entry(s.group.as_str()).or_default() += 1;
             assert!(s.min < s.max && s.default >= s.min && s.default <= s.max, "{}", s.name);
-            assert!(
-                s.name.chars().all(|ch| ch.is_ascii_alphanumeric() || ch == '_'),
-                "{}",
-                s.name
-            );
+            assert!(s.name.chars().all(|ch| ch.is_ascii_alphanumeric() || ch == '_'), "{}", s.name);
         }
         assert_eq!(groups["shapes_fine"], 380);
         assert_eq!(groups["shapes_coarse"], 44);

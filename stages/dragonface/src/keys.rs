@@ -75,9 +75,7 @@ pub(crate) fn spring_response(drive: &[f64], omega: f64, zeta: f64, substeps: us
 /// Second difference `a_t = x_{t+1} − 2x_t + x_{t−1}` (per frame², one-sided at the ends = 0).
 pub(crate) fn acceleration(x: &[f64]) -> Vec<f64> {
     let n = x.len();
-    (0..n)
-        .map(|t| if t == 0 || t + 1 >= n { 0.0 } else { x[t + 1] - 2.0 * x[t] + x[t - 1] })
-        .collect()
+    (0..n).map(|t| if t == 0 || t + 1 >= n { 0.0 } else { x[t + 1] - 2.0 * x[t] + x[t - 1] }).collect()
 }
 
 /// Blink timing: lids close over `close` frames, stay shut `hold` frames, open over `open`.

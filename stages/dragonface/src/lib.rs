@@ -17,6 +17,7 @@ mod blendshapes;
 mod controls;
 mod corpus;
 mod keys;
+mod labels;
 mod lattice;
 mod math;
 mod mesh;
@@ -25,7 +26,6 @@ mod rig;
 mod skinning;
 
 pub use controls::{ControlSpec, Unit};
-pub use corpus::{
-    generate_corpus, labels_toml, Corpus, Take, TakeKind, BAD_RANGE_FRAMES, FPS, GOOD_FRAME_BUDGET, LABELS,
-};
+pub use corpus::{generate_corpus, Corpus, Take, TakeKind, BAD_RANGE_FRAMES, FPS, GOOD_FRAME_BUDGET, LABELS};
+pub use labels::labels_toml;
 pub use rig::DragonRig;

@@ -19,11 +19,7 @@ pub(crate) fn dot(a: V3, b: V3) -> f64 {
 }
 
 pub(crate) fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
 pub(crate) fn norm(a: V3) -> f64 {
@@ -73,11 +69,7 @@ pub(crate) fn falloff(d: f64, r: f64) -> f64 {
 pub(crate) struct Affine(pub [[f64; 4]; 3]);
 
 impl Affine {
-    pub(crate) const IDENTITY: Affine = Affine([
-        [1.0, 0.0, 0.0, 0.0],
-        [0.0, 1.0, 0.0, 0.0],
-        [0.0, 0.0, 1.0, 0.0],
-    ]);
+    pub(crate) const IDENTITY: Affine = Affine([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]]);
 
     /// Rotation `R = Rz(rz) · Ry(ry) · Rx(rx)` (angles in degrees, right-handed, applied x first).
     pub(crate) fn rotation_deg(rx: f64, ry: f64, rz: f64) -> Affine {

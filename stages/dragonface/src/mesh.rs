@@ -1,8 +1,9 @@
 //! The rest mesh: a stylised creature head (deformed UV sphere with a snout, a mouth slit and
-//! two eye openings), two leaf-shaped ears, two eyeballs and a small tongue hidden in the mouth.
+//! sockets), two leaf-shaped ears, two eyeballs and a small tongue hidden in the mouth.
 //!
 //! Frame and units: centimetres; +y up, +z forward (the snout), +x the character's left (`L`).
-//! Head surface point for polar angle θ (from +y) and azimuth φ (from +z towards +x), with
+//! The head has a mouth slit (missing triangles between the lip rings); the eyeballs poke
+//! through the skin, whose rim hugs them. Head surface point for polar angle θ (from +y) and azimuth φ (from +z towards +x), with
 //! `d = (sin θ sin φ, cos θ, sin θ cos φ)` and snout factor `s = smoothstep(0.2, 1, d_z)`:
 //! `x = rx·d_x·(1 − narrow·s)`, `y = ry·d_y·(0.9 if d_y<0) − drop·s`,
 //! `z = rz·d_z·(1.08 if d_z<0) + snout·s^1.5` — about 34 cm long, 24 wide, 21 tall.
@@ -205,7 +206,9 @@ impl Mesh {
         self.push(p.surface(PI, 0.0), Part::Head, RINGS as i32, 0.0, 0.0);
         let n = self.pos.len();
         self.head_count = n;
-        // Eye sockets: skin near each eyeball hugs it; remember lid weights.
+        // Eye sockets: the eyeball pokes through the skin. Skin just outside it hugs the
+        // eyeball (a lid rim at radius r + 0.15); the skin cap inside the eyeball stays hidden
+        // there. All of it is weighted to the lids, which rotate about the eye centre.
         for side in 0..2 {
             let e = self.eyes[side].clone();
             for v in 0..n {
@@ -215,8 +218,10 @@ impl Mesh {
                 if d0 < reach {
                     let t = smoothstep(e.radius + 0.9, reach, d0);
                     let dir = normalize(u);
-                    let r = lerp(e.radius + 0.15, d0, t);
-                    self.pos[v] = add(e.centre, scale(dir, r));
+                    if d0 >= e.radius {
+                        let r = lerp(e.radius + 0.15, d0, t);
+                        self.pos[v] = add(e.centre, scale(dir, r));
+                    }
                     let up_share = smoothstep(-0.35, 0.35, dot(dir, e.up));
                     self.lid[v] = Some((side, 1.0 - t, up_share));
                 }
@@ -232,9 +237,8 @@ impl Mesh {
         }
         for i in 0..RINGS - 1 {
             for j in 0..SEGS {
-                let in_mouth = i == MOUTH_RING
-                    && seg_phi(j).abs() <= p.mouth_phi
-                    && seg_phi((j + 1) % SEGS).abs() <= p.mouth_phi;
+                let in_mouth =
+                    i == MOUTH_RING && seg_phi(j).abs() <= p.mouth_phi && seg_phi((j + 1) % SEGS).abs() <= p.mouth_phi;
                 if in_mouth {
                     continue;
                 }
@@ -243,14 +247,6 @@ impl Mesh {
                 tris.push([a, d, b]);
             }
         }
-        // Eye openings: drop triangles whose centroid lies inside an eye's elliptic opening.
-        tris.retain(|t| {
-            let c = scale(
-                add(add(self.pos[t[0] as usize], self.pos[t[1] as usize]), self.pos[t[2] as usize]),
-                1.0 / 3.0,
-            );
-            !self.eyes.iter().any(|e| in_opening(e, c))
-        });
         self.tris = tris;
         self.ranges.push(("head", 0..n));
     }
@@ -379,7 +375,7 @@ impl Mesh {
 fn eye_geom(p: &HeadParams, sx: f64) -> EyeGeom {
     let surf = p.surface(0.38 * PI, sx * 0.85);
     let out = p.outward(surf);
-    let centre = sub(surf, out);
+    let centre = sub(surf, scale(out, 1.5));
     let axis = normalize(add(scale(out, 0.6), [0.0, 0.0, 0.4]));
     let up = normalize(sub([0.0, 1.0, 0.0], scale(axis, axis[1])));
     let side = cross(up, axis);
@@ -390,18 +386,6 @@ fn ear_geom(p: &HeadParams, sx: f64) -> EarGeom {
     let surf = p.surface(0.30 * PI, sx * 2.0);
     let root = sub(surf, scale(p.outward(surf), 0.8));
     EarGeom { root, dir: normalize([sx * 0.5, 0.45, -0.75]), length: p.ear_len }
-}
-
-/// Whether point `c` lies inside the elliptic eye opening (50° × 36° half-angles).
-fn in_opening(e: &EyeGeom, c: V3) -> bool {
-    let u = normalize(sub(c, e.centre));
-    let fwd = dot(u, e.axis);
-    if fwd <= 0.0 {
-        return false;
-    }
-    let h = dot(u, e.side).atan2(fwd) / 50f64.to_radians();
-    let v = dot(u, e.up).atan2(fwd) / 36f64.to_radians();
-    h * h + v * v < 1.0
 }
 
 #[cfg(test)]
@@ -417,19 +401,16 @@ mod tests {
         assert!(m.head_count >= 3000, "{}", m.head_count);
         assert!(m.tris.iter().all(|t| t.iter().all(|&i| (i as usize) < n)));
         assert!(m.tris.iter().all(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2]));
-        // Mouth slit and eye openings removed some head triangles.
+        // The mouth slit removed some head triangles.
         let head_tris = m.tris.iter().filter(|t| (t[0] as usize) < m.head_count).count();
-        assert!(head_tris < 2 * RINGS * SEGS - 40, "{head_tris}");
+        assert!(head_tris <= 2 * RINGS * SEGS - 20, "{head_tris}");
         // Head about 30 cm long, eyes on the left/right of the snout.
-        let (zmin, zmax) = m.pos[..m.head_count]
-            .iter()
-            .fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p[2]), a.1.max(p[2])));
+        let (zmin, zmax) =
+            m.pos[..m.head_count].iter().fold((f64::MAX, f64::MIN), |a, p| (a.0.min(p[2]), a.1.max(p[2])));
         assert!((28.0..40.0).contains(&(zmax - zmin)), "{zmin} {zmax}");
         assert!(m.eyes[0].centre[0] > 3.0 && m.eyes[1].centre[0] < -3.0);
         // Head normals point outwards for almost all vertices.
-        let outward = (0..m.head_count)
-            .filter(|&v| dot(m.normals[v], m.params.outward(m.pos[v])) > 0.0)
-            .count();
+        let outward = (0..m.head_count).filter(|&v| dot(m.normals[v], m.params.outward(m.pos[v])) > 0.0).count();
         assert!(outward as f64 > 0.95 * m.head_count as f64, "{outward}");
         assert_eq!(m.ranges.len(), 6);
         assert_eq!(m.ranges.last().unwrap().1.end, n);

@@ -3,7 +3,7 @@
 //! (head, jaw, ears, brows, lids), fine shapes derived from the coarse expression plus small
 //! hand tweaks, tiny-bone noise (tongue, nostrils) and the snout lattice.
 
-use crate::controls::{FINE_FAMILIES, LATTICE_N, SIDES, EAR_BONES, TONGUE_BONES};
+use crate::controls::{EAR_BONES, FINE_FAMILIES, LATTICE_N, SIDES, TONGUE_BONES};
 use crate::rig::DragonRig;
 use rand::Rng;
 
@@ -23,7 +23,13 @@ pub(crate) struct Style {
 }
 
 pub(crate) fn style(label: &str) -> Style {
-    let s = |mv: (f64, f64), hold: (f64, f64), antic: f64, over: f64, blink: (usize, usize), sacc: (usize, usize), range: (f64, f64)| Style {
+    let s = |mv: (f64, f64),
+             hold: (f64, f64),
+             antic: f64,
+             over: f64,
+             blink: (usize, usize),
+             sacc: (usize, usize),
+             range: (f64, f64)| Style {
         move_frames: mv,
         hold_frames: hold,
         anticipation: antic,
@@ -38,7 +44,12 @@ pub(crate) fn style(label: &str) -> Style {
     match label {
         "happy" => s((6.0, 12.0), (6.0, 20.0), 0.12, 0.10, (48, 120), (14, 40), (12.0, 8.0)),
         "grumpy" => s((8.0, 16.0), (10.0, 30.0), 0.08, 0.06, (60, 140), (20, 60), (10.0, 6.0)),
-        "bored" => Style { blink_close: 3.0, blink_open: 6.0, breath: 1.6, ..s((12.0, 22.0), (16.0, 40.0), 0.05, 0.04, (48, 110), (30, 80), (8.0, 5.0)) },
+        "bored" => Style {
+            blink_close: 3.0,
+            blink_open: 6.0,
+            breath: 1.6,
+            ..s((12.0, 22.0), (16.0, 40.0), 0.05, 0.04, (48, 110), (30, 80), (8.0, 5.0))
+        },
         "curious" => s((6.0, 12.0), (6.0, 18.0), 0.10, 0.12, (60, 144), (8, 24), (18.0, 10.0)),
         "neutral" => s((10.0, 18.0), (12.0, 36.0), 0.06, 0.05, (48, 130), (18, 50), (10.0, 6.0)),
         "roar" => Style { breath: 0.5, ..s((5.0, 10.0), (8.0, 20.0), 0.20, 0.15, (80, 144), (24, 60), (6.0, 4.0)) },
@@ -250,12 +261,12 @@ pub(crate) fn key_pose(rig: &DragonRig, label: &str, first: bool, rng: &mut impl
             p.ears(u(r, 15.0, 35.0), u(r, 0.0, 5.0), u(r, -10.0, 0.0), r);
             p.brow_bones(u(r, 0.3, 1.0), u(r, 0.2, 0.8), u(r, 0.0, 8.0));
             p.head(u(r, -5.0, 5.0), u(r, -12.0, 12.0), sign(r) * u(r, 10.0, 22.0));
-            p.set("head_tz", u(r, 1.5, 3.5));
+            p.set("head_tz", u(r, 1.0, 2.5));
             match r.gen_range(0..3) {
                 0 => {}
                 1 => {
                     p.set("squint_L", 0.4);
-                    p.set("head_tz", u(r, 3.0, 4.5));
+                    p.set("head_tz", u(r, 2.0, 3.0));
                 }
                 _ => {
                     p.sym("nose_wrinkle_{s}", 0.4);
@@ -293,13 +304,13 @@ pub(crate) fn key_pose(rig: &DragonRig, label: &str, first: bool, rng: &mut impl
                     p.sym("eye_{s}_dilate", -0.5);
                     p.ears(u(r, -55.0, -35.0), u(r, -6.0, -2.0), u(r, 5.0, 15.0), r);
                     p.head(u(r, -20.0, -10.0), u(r, -10.0, 10.0), u(r, -6.0, 6.0));
-                    p.set("head_tz", u(r, 2.0, 4.5));
+                    p.set("head_tz", u(r, 1.0, 2.5));
                     p.brow_bones(-1.2, -0.3, -10.0);
                     p.lids(10.0, -8.0, r);
                 }
                 1 => {
                     p.head(u(r, 8.0, 18.0), u(r, -6.0, 6.0), u(r, -4.0, 4.0));
-                    p.set("head_tz", u(r, -3.0, -1.0));
+                    p.set("head_tz", u(r, -2.0, -0.5));
                     p.set("jaw_open", u(r, 0.0, 3.0));
                     p.sym("brow_down_{s}", 0.5);
                     p.sym("snarl_{s}", 0.3);
@@ -350,9 +361,9 @@ pub(crate) fn key_pose(rig: &DragonRig, label: &str, first: bool, rng: &mut impl
                     p.set("lip_funnel", if v == 0 { u(r, 0.2, 0.5) } else { 0.6 });
                     p.ears(u(r, 30.0, 50.0), u(r, 2.0, 6.0), u(r, -8.0, 0.0), r);
                     p.head(u(r, -15.0, -6.0), u(r, -8.0, 8.0), u(r, -5.0, 5.0));
-                    p.set("head_tz", u(r, -4.0, -2.0));
+                    p.set("head_tz", u(r, -2.5, -1.0));
                     p.sym("eye_{s}_dilate", u(r, 0.6, 0.9));
-                    p.brow_bones(u(r, 1.0, 1.6), u(r, 0.6, 1.2), 6.0);
+                    p.brow_bones(u(r, 0.6, 1.1), u(r, 0.4, 0.9), 6.0);
                     if v == 1 {
                         p.sym("cheek_suck_{s}", 0.2);
                     }
@@ -440,10 +451,12 @@ fn fill_details(p: &mut Pose, rng: &mut impl Rng) {
                             let s = side(x);
                             let sm = g(&format!("smile_{s}"));
                             match d {
-                                "up" => 0.5 * sm * a.powf(1.5)
-                                    + 0.5 * g(&format!("upper_lip_raise_{s}")) * bump(a, 0.35, 0.7)
-                                    + 0.6 * g(&format!("snarl_{s}")) * bump(a, 0.45, 0.3)
-                                    + 0.2 * g("lip_funnel"),
+                                "up" => {
+                                    0.5 * sm * a.powf(1.5)
+                                        + 0.5 * g(&format!("upper_lip_raise_{s}")) * bump(a, 0.35, 0.7)
+                                        + 0.6 * g(&format!("snarl_{s}")) * bump(a, 0.45, 0.3)
+                                        + 0.2 * g("lip_funnel")
+                                }
                                 "down" => 0.4 * g(&format!("frown_{s}")) * a.powf(1.5) + 0.4 * g("lip_press"),
                                 "out" => 0.5 * g("lip_pucker") * (1.0 - a) + 0.4 * g("lip_funnel"),
                                 _ => 0.5 * g("lip_roll_upper") + 0.2 * g("lip_press"),
@@ -452,10 +465,16 @@ fn fill_details(p: &mut Pose, rng: &mut impl Rng) {
                         ("lip_lower", d) => {
                             let s = side(x);
                             match d {
-                                "up" => 0.4 * g("chin_raise") + 0.4 * g("lip_press") + 0.3 * g(&format!("smile_{s}")) * a.powf(1.5),
-                                "down" => 0.5 * g(&format!("lower_lip_depress_{s}")) * bump(a, 0.35, 0.7)
-                                    + 0.3 * g("jaw_open_shape")
-                                    + 0.3 * g(&format!("frown_{s}")) * a,
+                                "up" => {
+                                    0.4 * g("chin_raise")
+                                        + 0.4 * g("lip_press")
+                                        + 0.3 * g(&format!("smile_{s}")) * a.powf(1.5)
+                                }
+                                "down" => {
+                                    0.5 * g(&format!("lower_lip_depress_{s}")) * bump(a, 0.35, 0.7)
+                                        + 0.3 * g("jaw_open_shape")
+                                        + 0.3 * g(&format!("frown_{s}")) * a
+                                }
                                 "out" => 0.5 * g("lip_pucker") * (1.0 - a) + 0.4 * g("lip_funnel"),
                                 _ => 0.5 * g("lip_roll_lower"),
                             }
@@ -463,16 +482,24 @@ fn fill_details(p: &mut Pose, rng: &mut impl Rng) {
                         ("brow_seg", d) => {
                             let inner = (1.0 - x) / 2.0;
                             match d {
-                                "up" => g(&format!("brow_up_{s}")) * (0.5 + 0.3 * (1.0 - inner)) + 0.3 * g("forehead_raise"),
+                                "up" => {
+                                    g(&format!("brow_up_{s}")) * (0.5 + 0.3 * (1.0 - inner)) + 0.3 * g("forehead_raise")
+                                }
                                 "down" => g(&format!("brow_down_{s}")) * (0.3 + 0.6 * inner),
                                 _ => g(&format!("brow_squeeze_{s}")) * inner,
                             }
                         }
                         ("lid_upper", "up") => 0.6 * g(&format!("eye_wide_{s}")),
-                        ("lid_upper", _) => 0.3 * g(&format!("squint_{s}")) + (g(&format!("eyelid_{s}_upper_rx")) / 60.0).clamp(0.0, 0.5),
+                        ("lid_upper", _) => {
+                            0.3 * g(&format!("squint_{s}"))
+                                + (g(&format!("eyelid_{s}_upper_rx")) / 60.0).clamp(0.0, 0.5)
+                        }
                         ("lid_lower", "up") => 0.6 * g(&format!("squint_{s}")) + 0.3 * g(&format!("cheek_raise_{s}")),
                         ("lid_lower", _) => 0.3 * g(&format!("eye_wide_{s}")),
-                        ("cheek", "out") => 0.6 * g(&format!("cheek_puff_{s}")) + if row == 0 { 0.3 * g(&format!("smile_{s}")) } else { 0.0 },
+                        ("cheek", "out") => {
+                            0.6 * g(&format!("cheek_puff_{s}"))
+                                + if row == 0 { 0.3 * g(&format!("smile_{s}")) } else { 0.0 }
+                        }
                         ("cheek", _) => 0.6 * g(&format!("cheek_suck_{s}")),
                         ("snout_ridge", "up") => {
                             let t = seg as f64 / (fam.count - 1) as f64;
@@ -489,7 +516,9 @@ fn fill_details(p: &mut Pose, rng: &mut impl Rng) {
                         ("mouth_corner", "up") => 0.5 * g(&format!("smile_{s}")),
                         ("mouth_corner", "down") => 0.5 * g(&format!("frown_{s}")),
                         ("mouth_corner", "in") => 0.5 * g(&format!("mouth_narrow_{s}")) + 0.3 * g("lip_pucker"),
-                        ("mouth_corner", _) => 0.5 * g(&format!("mouth_wide_{s}")) + 0.3 * g(&format!("lip_stretch_{s}")),
+                        ("mouth_corner", _) => {
+                            0.5 * g(&format!("mouth_wide_{s}")) + 0.3 * g(&format!("lip_stretch_{s}"))
+                        }
                         ("jawline", "in") => 0.3 * g(&format!("cheek_suck_{s}")) + 0.2 * g(&format!("jowl_{s}")),
                         ("jawline", _) => 0.5 * g("jaw_clench"),
                         ("forehead", "up") => 0.5 * g("forehead_raise") + 0.25 * (g("brow_up_L") + g("brow_up_R")),

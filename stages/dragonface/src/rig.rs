@@ -42,8 +42,7 @@ impl DragonRig {
     pub fn new(seed: u64) -> DragonRig {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let controls = build_controls();
-        let index: HashMap<String, usize> =
-            controls.iter().enumerate().map(|(i, c)| (c.name.clone(), i)).collect();
+        let index: HashMap<String, usize> = controls.iter().enumerate().map(|(i, c)| (c.name.clone(), i)).collect();
         let mesh = Mesh::new(&mut rng);
         let idx = |n: &str| *index.get(n).unwrap_or_else(|| panic!("rig control {n} missing"));
         let ctl = |n: &str| {
@@ -276,23 +275,6 @@ mod tests {
     }
 
     #[test]
-    fn debug_stats() {
-        let r = rig();
-        let rest = r.evaluate_vec(&r.default_pose());
-        let jaw = r.bone_names().iter().position(|b| *b == "jaw").unwrap();
-        let n = (0..r.vertex_count()).filter(|&v| r.skin.influences(v).iter().any(|&(b, w)| b == jaw && w > 0.5)).count();
-        println!("jaw-weighted > 0.5: {n}");
-        for (name, v) in [("smile_L", 0.3), ("tongue_02_rx", 17.0), ("tongue_01_ry", 17.0), ("nostril_L_01_rx", 17.0), ("ear_L_01_rx", 10.0), ("eye_L_yaw", 10.0), ("jaw_open", 8.0), ("brow_L_mid_ty", 0.5), ("lip_upper_05_up", 0.2), ("lattice_223_tz", 0.4), ("eyelid_L_blink", 1.0)] {
-            let mut p = r.default_pose();
-            set(&r, &mut p, name, v);
-            let out = r.evaluate_vec(&p);
-            let d: f64 = out.iter().zip(&rest).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
-            let mx = (0..r.vertex_count()).map(|i| moved(&rest, &out, i)).fold(0.0, f64::max);
-            println!("{name} = {v}: |de| = {d:.3}, max vertex move {mx:.3}");
-        }
-    }
-
-    #[test]
     #[ignore = "benchmark: cargo test --release -p reprise-dragonface -- --ignored --nocapture"]
     fn bench_evaluate() {
         use rand::Rng;
@@ -321,7 +303,15 @@ mod tests {
             .map(|p| {
                 p.iter()
                     .zip(r.controls())
-                    .map(|(v, c)| if c.group == "lattice" && !c.name.starts_with("lattice_") { 0.0 } else if c.group == "lattice" && c.name.as_bytes()[10] != b'3' { 0.0 } else { *v })
+                    .map(|(v, c)| {
+                        // keep only the front lattice layer (k = 3), as in the corpus
+                        let back_lattice = c.group == "lattice" && c.name.as_bytes()[10] != b'3';
+                        if back_lattice {
+                            0.0
+                        } else {
+                            *v
+                        }
+                    })
                     .collect()
             })
             .collect();
@@ -347,6 +337,17 @@ mod tests {
             let per = t.elapsed().as_secs_f64() / (reps * poses.len()) as f64;
             println!("evaluate without {group}: {:.1} µs per pose", per * 1e6);
         }
+        let corpus = crate::generate_corpus(&r, 7);
+        let t = std::time::Instant::now();
+        let mut n = 0;
+        for take in &corpus.takes {
+            for f in 0..take.frame_count {
+                r.evaluate(take.frame(f), &mut out);
+                n += 1;
+            }
+        }
+        let per = t.elapsed().as_secs_f64() / n as f64;
+        println!("evaluate, all {n} corpus frames: {:.1} µs per pose", per * 1e6);
         let support: usize = r.coarse.iter().chain(&r.fine).map(|s| s.field.idx.len()).sum();
         println!("blendshape support total: {support}");
         let t = std::time::Instant::now();

@@ -129,12 +129,12 @@ impl Skin {
             let up = vec![
                 (format!("eyelid_{s}_upper_rx"), 0, 1.0),
                 (format!("eyelid_{s}_upper_rz"), 2, *sx),
-                (blink.clone(), 0, 46.0),
+                (blink.clone(), 0, 60.0),
             ];
             let lo = vec![
                 (format!("eyelid_{s}_lower_rx"), 0, 1.0),
                 (format!("eyelid_{s}_lower_rz"), 2, *sx),
-                (blink, 0, -24.0),
+                (blink, 0, -32.0),
             ];
             let u = add_bone(&format!("lid_{s}_upper"), Some(head), c, up);
             let l = add_bone(&format!("lid_{s}_lower"), Some(head), c, lo);
@@ -166,20 +166,21 @@ impl Skin {
                         r => ring_theta(r as usize),
                     };
                     if ring > MOUTH_RING as i32 {
+                        // Jaw: everything below the mouth line in front of the hinge, fading
+                        // towards the mouth corners, the cheeks and back to the throat.
                         let k = smoothstep(p.mouth_phi - 0.05, p.mouth_phi + 0.3, a);
                         let below = lerp(1.0, smoothstep(theta_m, theta_m + 5.0 * dtheta, theta), k);
-                        let mut lat = 1.0 - smoothstep(p.mouth_phi, p.mouth_phi + 0.9, a);
-                        if ring >= RINGS as i32 {
-                            lat = 0.4;
-                        }
-                        infl.push((jaw, below * lat));
+                        let side = 1.0 - smoothstep(p.mouth_phi - 0.5, p.mouth_phi + 0.7, a);
+                        let front = smoothstep(jaw_pivot[2] - 4.0, jaw_pivot[2] + 3.0, pos[2]);
+                        infl.push((jaw, below * side * front));
                     }
-                    let wn = 0.85 * smoothstep(0.70 * PI, 0.95 * PI, theta) * (0.5 - 0.5 * mesh.phi[v].cos());
+                    let wn = 0.5 * smoothstep(0.78 * PI, 0.98 * PI, theta) * (0.5 - 0.5 * mesh.phi[v].cos());
                     infl.push((neck, wn));
+                    let lid_w = mesh.lid[v].map_or(0.0, |l| l.1);
                     for &(b, side) in &brows {
                         let cy = mesh.eyes[side].centre[1];
-                        let m = smoothstep(cy + 0.5, cy + 1.8, pos[1]);
-                        infl.push((b, 0.85 * falloff(dist(pos, bones[b].pivot), 3.0) * m));
+                        let m = smoothstep(cy, cy + 2.5, pos[1]) * (1.0 - lid_w);
+                        infl.push((b, 0.8 * falloff(dist(pos, bones[b].pivot), 4.5) * m));
                     }
                     if let Some((side, lw, up_share)) = mesh.lid[v] {
                         infl.push((lids[side].0, lw * up_share));
@@ -268,13 +269,6 @@ impl Skin {
             };
             p.copy_from_slice(&r);
         }
-    }
-
-    /// (bone, weight) influences of vertex `v`.
-    #[allow(dead_code)]
-    pub(crate) fn influences(&self, v: usize) -> Vec<(usize, f64)> {
-        let (s, e) = (self.offsets[v] as usize, self.offsets[v + 1] as usize);
-        (s..e).map(|i| (self.bone_of[i] as usize, self.weight[i])).collect()
     }
 }
 
