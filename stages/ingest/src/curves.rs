@@ -36,6 +36,33 @@ pub(crate) struct TimeBase<'a> {
     pub(crate) source_fps: f64,
     /// Clip name for tables without a `clip` column.
     pub(crate) default_clip: &'a str,
+    /// A column of times other than `time`/`frame`: seconds, or SMPTE timecodes
+    /// `HH:MM:SS:FF[.fff]` whose frame field counts at `source_fps`.
+    pub(crate) time_column: Option<&'a str>,
+    /// Columns to leave out (e.g. a constant `BlendShapeCount`).
+    pub(crate) ignore: &'a [String],
+}
+
+impl TimeBase<'_> {
+    /// Column names that are not controls.
+    fn keys(&self) -> Vec<&str> {
+        let mut keys = vec![CLIP, FRAME, TIME];
+        keys.extend(self.time_column);
+        keys.extend(self.ignore.iter().map(String::as_str));
+        keys
+    }
+}
+
+/// Seconds from `HH:MM:SS:FF[.fff]` (frames at `fps`) or from a plain number.
+pub(crate) fn parse_time(cell: &str, fps: f64) -> Option<f64> {
+    if let Ok(seconds) = cell.parse::<f64>() {
+        return seconds.is_finite().then_some(seconds);
+    }
+    let parts: Vec<&str> = cell.split(':').collect();
+    let [h, m, s, f] = parts.as_slice() else { return None };
+    let (h, m, s): (u32, u32, u32) = (h.parse().ok()?, m.parse().ok()?, s.parse().ok()?);
+    let f: f64 = f.parse().ok().filter(|f: &f64| f.is_finite() && *f >= 0.0)?;
+    (m < 60 && s < 60).then(|| f64::from(h) * 3600.0 + f64::from(m) * 60.0 + f64::from(s) + f / fps)
 }
 
 /// Whether a table is in long form (it has `control` and `value` columns).
@@ -49,7 +76,18 @@ fn row_keys(table: &RawTable, base: &TimeBase<'_>) -> StageResult<(Vec<String>, 
     let names = table.column_names();
     let has = |c: &str| names.iter().any(|n| n == c);
     let clips = if has(CLIP) { table.strings(CLIP)? } else { vec![base.default_clip.to_string(); table.rows()] };
-    let times = if has(TIME) {
+    let times = if let Some(column) = base.time_column {
+        if !has(column) {
+            return Err(StageError::Input(format!("{}: no time column `{column}`", table.path().display())));
+        }
+        let cells = table.strings(column)?;
+        let parse = |(row, cell): (usize, &String)| {
+            parse_time(cell, base.source_fps).ok_or_else(|| {
+                table.error(row, column, &format!("`{cell}` is neither seconds nor a timecode HH:MM:SS:FF[.fff]"))
+            })
+        };
+        cells.iter().enumerate().map(parse).collect::<StageResult<Vec<f64>>>()?
+    } else if has(TIME) {
         table.numbers(TIME)?
     } else if has(FRAME) {
         table.integers(FRAME)?.into_iter().map(|f| f as f64 / base.source_fps).collect()
@@ -63,8 +101,10 @@ fn row_keys(table: &RawTable, base: &TimeBase<'_>) -> StageResult<(Vec<String>, 
 }
 
 /// The column that carries time, for messages.
-fn time_column(table: &RawTable) -> &'static str {
-    if table.column_names().iter().any(|n| n == TIME) {
+fn time_column<'a>(table: &RawTable, base: &TimeBase<'a>) -> &'a str {
+    if let Some(column) = base.time_column {
+        column
+    } else if table.column_names().iter().any(|n| n == TIME) {
         TIME
     } else {
         FRAME
@@ -80,7 +120,8 @@ pub(crate) fn wide(table: &RawTable, base: &TimeBase<'_>) -> StageResult<Curves>
             table.path().display()
         )));
     }
-    let controls: Vec<String> = names.iter().filter(|n| ![CLIP, FRAME, TIME].contains(&n.as_str())).cloned().collect();
+    let keys = base.keys();
+    let controls: Vec<String> = names.iter().filter(|n| !keys.contains(&n.as_str())).cloned().collect();
     if controls.is_empty() {
         return Err(StageError::Input(format!("{}: no control columns", table.path().display())));
     }
@@ -94,7 +135,7 @@ pub(crate) fn wide(table: &RawTable, base: &TimeBase<'_>) -> StageResult<Curves>
             order.push(clip.clone());
         }
         if let Some(&prev) = rows.last() {
-            let what = time_column(table);
+            let what = time_column(table, base);
             if times[row] == times[prev] {
                 return Err(table.error(row, what, &format!("clip `{clip}`: {what} repeats {}", table.at(prev))));
             }
@@ -123,7 +164,9 @@ pub(crate) fn wide(table: &RawTable, base: &TimeBase<'_>) -> StageResult<Curves>
 /// must have a value at every time of its clip, exactly once.
 pub(crate) fn long(table: &RawTable, base: &TimeBase<'_>) -> StageResult<Curves> {
     let names = table.column_names();
-    if let Some(unknown) = names.iter().find(|n| ![CLIP, FRAME, TIME, CONTROL, VALUE].contains(&n.as_str())) {
+    let mut known = base.keys();
+    known.extend([CONTROL, VALUE]);
+    if let Some(unknown) = names.iter().find(|n| !known.contains(&n.as_str())) {
         return Err(StageError::Input(format!(
             "{}: unknown column `{unknown}`; a long table has the columns clip (optional), frame or time, control, value",
             table.path().display()
@@ -242,6 +285,17 @@ pub(crate) fn resample(curves: &Curves, fps: f64) -> Frames {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn timecodes_and_seconds() {
+        assert_eq!(parse_time("1.25", 60.0), Some(1.25));
+        let t = parse_time("00:32:09:08.868", 60.0).unwrap();
+        assert!((t - (32.0 * 60.0 + 9.0 + 8.868 / 60.0)).abs() < 1e-12);
+        assert_eq!(parse_time("01:00:00:30", 30.0), Some(3601.0));
+        for bad in ["", "12:00", "00:61:00:00", "a:b:c:d", "00:00:00:-1", "nan"] {
+            assert_eq!(parse_time(bad, 30.0), None, "{bad}");
+        }
+    }
 
     fn clip(times: Vec<f64>, values: Vec<f64>) -> Curves {
         Curves { controls: vec!["a".into()], clips: vec![ClipCurves { name: "c".into(), times, values }] }

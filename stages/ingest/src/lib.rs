@@ -70,6 +70,13 @@ pub struct Args {
     /// Rate of a table's `frame` column when it has no `time` column (default: --fps).
     #[arg(long)]
     pub source_fps: Option<f64>,
+    /// A column of times other than `time`/`frame`: seconds, or SMPTE timecodes
+    /// `HH:MM:SS:FF[.fff]` whose frame field counts at --source-fps (e.g. Live Link Face's `Timecode`).
+    #[arg(long, value_name = "COLUMN")]
+    pub time_column: Option<String>,
+    /// Columns of a curve table that are not controls and should be dropped (comma-separated).
+    #[arg(long, value_delimiter = ',', value_name = "COLUMNS")]
+    pub ignore_columns: Vec<String>,
     /// Clip name for a table without a `clip` column (default: the file's stem).
     #[arg(long)]
     pub clip: Option<String>,
@@ -197,6 +204,8 @@ fn from_table(args: &Args, path: &std::path::Path) -> StageResult<(Frames, Contr
     let base = curves::TimeBase {
         source_fps: args.source_fps.unwrap_or(args.fps),
         default_clip: args.clip.as_deref().unwrap_or(&stem),
+        time_column: args.time_column.as_deref(),
+        ignore: &args.ignore_columns,
     };
     let long = match args.layout {
         Layout::Auto => curves::is_long(&table),

@@ -21,6 +21,8 @@ fn args(dir: &Path, name: &str, text: &str) -> Args {
         fps: 24.0,
         source_fps: None,
         clip: None,
+        time_column: None,
+        ignore_columns: vec![],
         external_rig: vec![],
         frames: dir.join("frames.parquet"),
         controls: dir.join("controls.parquet"),
@@ -104,6 +106,43 @@ fn dragon_face_generates_the_corpus() {
     assert!(matches!(c.rig, RigRef::DragonFace { seed: 7, .. }));
     assert!(c.controls.iter().any(|c| !c.animated), "some controls never move");
     assert!(c.controls.iter().any(|c| c.group == "eyes"));
+}
+
+/// A real Live Link Face (ARKit) take: 60 fps SMPTE timecodes, 61 curves, a constant
+/// `BlendShapeCount` column dropped, resampled to 24 fps.
+#[test]
+fn live_link_face_csv() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/datasets/livelinkface_csv/MySlate_3_Jason_Millers_iPhone.csv");
+    if !path.exists() {
+        assert!(std::env::var_os("CI").is_none(), "CI must have ../shared/datasets/livelinkface_csv");
+        eprintln!("SKIPPED live_link_face_csv: ../shared/datasets not found");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mut a = args(dir.path(), "unused.csv", "");
+    a.curves = Some(path);
+    a.time_column = Some("Timecode".into());
+    a.ignore_columns = vec!["BlendShapeCount".into()];
+    a.source_fps = Some(60.0);
+    let s = run(&a).unwrap().unwrap();
+    assert_eq!(s.controls, 61);
+    // 328 frames at 60 fps span 327/60 s; at 24 fps that is floor(130.8) + 1 frames.
+    assert_eq!(s.frames, 131);
+    let cl = clips::read(&a.clips).unwrap();
+    assert!((cl[0].source_fps - 60.0).abs() < 0.5, "{}", cl[0].source_fps);
+    let f = Frames::read(&a.frames).unwrap();
+    let jaw = f.controls.iter().position(|c| c == "JawOpen").unwrap();
+    assert!(f.column(jaw).iter().all(|v| (0.0..=1.0).contains(v)));
+}
+
+#[test]
+fn bad_timecode_names_line_and_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut a = args(dir.path(), "tc.csv", "Timecode,jaw\n00:00:00:01,1\n00:00:0x:02,1\n");
+    a.time_column = Some("Timecode".into());
+    let err = run(&a).unwrap_err().to_string();
+    assert!(err.contains("tc.csv: line 3, column `Timecode`") && err.contains("timecode"), "{err}");
 }
 
 /// One test per bad input: a clear message naming the file and where, the INPUT exit
