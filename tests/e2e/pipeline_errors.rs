@@ -131,3 +131,16 @@ fn dag_lists_stages_and_artifacts() {
     let out = p.reprise(&["dag", "--format", "mermaid"]).ok();
     assert!(out.contains("flowchart") && out.contains("ingest") && out.contains("label"), "{out}");
 }
+
+/// Two runs of one pipeline at once: the second refuses to start instead of interleaving.
+#[test]
+fn concurrent_run_is_refused() {
+    let p = small("");
+    std::fs::create_dir_all(p.path("artifacts/small")).unwrap();
+    let held = std::fs::File::create(p.path("artifacts/small/.reprise.running")).unwrap();
+    held.lock().unwrap();
+    let out = p.reprise(&["run"]).fails(exit::FAILURE);
+    assert!(out.contains("another `reprise run`"), "{out}");
+    held.unlock().unwrap();
+    p.reprise(&["run"]).ok();
+}

@@ -15,6 +15,10 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
+    /// Another `reprise run` holds this pipeline's run lock.
+    #[error("another `reprise run` is running this pipeline (it holds `{}`); wait for it to finish", path.display())]
+    AlreadyRunning { path: std::path::PathBuf },
+
     /// One or more stages rejected their flags when invoked with `--check`.
     #[error("{}", check_failures(failures))]
     CheckFailed { failures: Vec<(String, String)>, code: i32 },
@@ -151,7 +155,7 @@ impl Error {
             Self::Io { .. } | Self::InspectRows { .. } | Self::NotParquet { .. } | Self::SourceMissing { .. } => {
                 exit::INPUT
             }
-            Self::LockWrite { .. } | Self::OutputNotWritten { .. } => exit::FAILURE,
+            Self::AlreadyRunning { .. } | Self::LockWrite { .. } | Self::OutputNotWritten { .. } => exit::FAILURE,
             Self::Spawn { .. } | Self::StageBinaryMissing { .. } | Self::StageKilled { .. } => exit::STAGE_CRASHED,
             Self::CheckFailed { code, .. } | Self::StageFailed { code, .. } => *code,
         }

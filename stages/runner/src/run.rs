@@ -35,6 +35,7 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
     }
 
     let lock_path = pipeline.lock_path();
+    let _running = hold_run_lock(&pipeline)?;
     let (mut lock, warning) = LockFile::load(&lock_path, &pipeline.name);
     if let Some(warning) = warning {
         say(log, &format!("reprise: warning: {warning}"));
@@ -212,6 +213,26 @@ fn run_stage(pipeline: &Pipeline, stage: &Stage, bin: &ResolvedBin, hasher: &mut
         seconds,
         peak_rss_mb,
     })
+}
+
+/// Takes an exclusive advisory lock on `<artifacts>/.reprise.running` for the length of
+/// the run, so two `reprise run`s of one pipeline cannot interleave stages or overwrite
+/// each other's lock file. Released when the returned file is dropped (or the process ends).
+fn hold_run_lock(pipeline: &Pipeline) -> Result<std::fs::File> {
+    let dir = &pipeline.artifacts.abs;
+    std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.clone(), source })?;
+    let path = dir.join(".reprise.running");
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&path)
+        .map_err(|source| Error::Io { path: path.clone(), source })?;
+    match file.try_lock() {
+        Ok(()) => Ok(file),
+        Err(std::fs::TryLockError::WouldBlock) => Err(Error::AlreadyRunning { path }),
+        Err(std::fs::TryLockError::Error(source)) => Err(Error::Io { path, source }),
+    }
 }
 
 /// Writes one progress line and flushes it, so it lands before the next child's output.
