@@ -23,7 +23,7 @@ fn spawn(flags: &[&str], timeout: Duration) -> Result<ExternalRig, reprise_rig::
 fn external_matches_in_process() {
     let rig = spawn(&[], Duration::from_secs(20)).unwrap();
     assert_eq!(rig.vertex_count(), 7);
-    let local = LinearRig::new(names(4), 7);
+    let local = reprise_rig::Local::new(LinearRig::new(names(4), 7));
     let poses: Vec<f64> = (0..40).map(|i| f64::from(i) * 0.1 - 1.0).collect();
     let mut a = vec![0.0; 10 * 21];
     let mut b = vec![0.0; 10 * 21];

@@ -13,12 +13,14 @@ pub mod dragon;
 pub mod error;
 pub mod external;
 pub mod linear;
+pub mod local;
 pub mod pose;
 pub mod skeleton;
 
 use std::path::Path;
 
 pub use error::RigError;
+pub use local::{Local, PoseEvaluator};
 pub use pose::PoseLayout;
 use rayon::prelude::*;
 use reprise_artifact::controls::RigRef;
@@ -71,12 +73,12 @@ pub fn par_batch(
 /// needed by rigs that learn them from the data (external).
 pub fn open(rig: &RigRef, base: &Path, controls: &[String], rest: &[f64]) -> Result<Box<dyn Rig>, RigError> {
     match rig {
-        RigRef::DragonFace { seed, version } => Ok(Box::new(dragon::Dragon::open(*seed, version)?)),
+        RigRef::DragonFace { seed, version } => Ok(Box::new(dragon::open(*seed, version)?)),
         RigRef::External { command } => {
             Ok(Box::new(external::ExternalRig::spawn(command, base, controls.to_vec(), rest.to_vec())?))
         }
-        RigRef::Bvh { path, blake3 } => Ok(Box::new(skeleton::BvhSkeleton::open(base, path, blake3)?)),
-        RigRef::Gltf { path, blake3 } => Ok(Box::new(skeleton::GltfCharacter::open(base, path, blake3)?)),
+        RigRef::Bvh { path, blake3 } => Ok(Box::new(skeleton::open_bvh(base, path, blake3)?)),
+        RigRef::Gltf { path, blake3 } => Ok(Box::new(skeleton::open_gltf(base, path, blake3)?)),
         RigRef::None => Err(RigError::Open {
             rig: "none".into(),
             message: "the controls table names no rig (curve tables carry none); mesh-space stages need one: \

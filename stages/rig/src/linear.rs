@@ -2,7 +2,7 @@
 //! process (`reprise-example-rig`) and a rig whose scaling weights are known exactly
 //! (`w_j = ‖A_{:,j}‖`, the paper's Eq. 3 solved analytically).
 
-use crate::{par_batch, Rig, RigError};
+use crate::local::PoseEvaluator;
 
 /// `e(p) = b + A p` with a fixed, deterministic `A` (3V × C) and `b`.
 #[derive(Debug, Clone)]
@@ -40,12 +40,12 @@ impl LinearRig {
     }
 }
 
-impl Rig for LinearRig {
+impl PoseEvaluator for LinearRig {
     fn describe(&self) -> String {
         format!("linear ({} controls, {} vertices)", self.names.len(), self.vertices)
     }
-    fn control_names(&self) -> &[String] {
-        &self.names
+    fn control_names(&self) -> Vec<String> {
+        self.names.clone()
     }
     fn rest_pose(&self) -> Vec<f64> {
         vec![0.0; self.names.len()]
@@ -56,7 +56,7 @@ impl Rig for LinearRig {
     fn triangles(&self) -> &[[u32; 3]] {
         &[]
     }
-    fn evaluate_batch(&self, poses: &[f64], out: &mut [f64]) -> Result<(), RigError> {
-        par_batch(self, poses, out, |p, o| self.eval_into(p, o))
+    fn evaluate_pose(&self, pose: &[f64], out: &mut [f64]) {
+        self.eval_into(pose, out);
     }
 }

@@ -2,15 +2,21 @@
 //! vertices) and a glTF character (morph targets, then linear blend skinning). The file
 //! must be the one ingest read: its content hash is checked.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use reprise_bvh::BvhRig;
 use reprise_gltf::GltfRig;
 
-use crate::{par_batch, Rig, RigError};
+use crate::local::{Local, PoseEvaluator};
+use crate::RigError;
+
+/// A BVH skeleton as a [`Rig`](crate::Rig).
+pub type BvhSkeleton = Local<BvhRig>;
+/// A glTF character as a [`Rig`](crate::Rig).
+pub type GltfCharacter = Local<GltfRig>;
 
 /// Fails unless `path` (relative to `base`) still has the content hash ingest saw.
-pub(crate) fn check_hash(base: &Path, path: &str, blake3: &str) -> Result<std::path::PathBuf, RigError> {
+fn check_hash(base: &Path, path: &str, blake3: &str) -> Result<PathBuf, RigError> {
     let full = base.join(path);
     let now = reprise_artifact::provenance::hash_file(&full)
         .map_err(|e| RigError::Open { rig: path.into(), message: e.to_string() })?;
@@ -23,75 +29,58 @@ pub(crate) fn check_hash(base: &Path, path: &str, blake3: &str) -> Result<std::p
     Ok(full)
 }
 
-/// A BVH skeleton behind [`Rig`].
-pub struct BvhSkeleton {
-    rig: BvhRig,
-    names: Vec<String>,
+/// Opens the skeleton of `path` (relative to `base`), checking its content hash.
+pub fn open_bvh(base: &Path, path: &str, blake3: &str) -> Result<BvhSkeleton, RigError> {
+    let full = check_hash(base, path, blake3)?;
+    let rig = BvhRig::open(&full).map_err(|e| RigError::Open { rig: path.into(), message: e.to_string() })?;
+    Ok(Local::new(rig))
 }
 
-impl BvhSkeleton {
-    /// Opens the skeleton of `path` (relative to `base`), checking its content hash.
-    pub fn open(base: &Path, path: &str, blake3: &str) -> Result<Self, RigError> {
-        let full = check_hash(base, path, blake3)?;
-        let rig = BvhRig::open(&full).map_err(|e| RigError::Open { rig: path.into(), message: e.to_string() })?;
-        Ok(Self { names: rig.control_names().to_vec(), rig })
-    }
+/// Opens the character of `path` (relative to `base`), checking its content hash.
+pub fn open_gltf(base: &Path, path: &str, blake3: &str) -> Result<GltfCharacter, RigError> {
+    let full = check_hash(base, path, blake3)?;
+    let rig = GltfRig::open(&full).map_err(|e| RigError::Open { rig: path.into(), message: e.to_string() })?;
+    Ok(Local::new(rig))
 }
 
-impl Rig for BvhSkeleton {
+impl PoseEvaluator for BvhRig {
     fn describe(&self) -> String {
-        self.rig.describe()
+        BvhRig::describe(self)
     }
-    fn control_names(&self) -> &[String] {
-        &self.names
+    fn control_names(&self) -> Vec<String> {
+        BvhRig::control_names(self).to_vec()
     }
     fn rest_pose(&self) -> Vec<f64> {
-        self.rig.default_controls()
+        self.default_controls()
     }
     fn vertex_count(&self) -> usize {
-        self.rig.vertex_count()
+        BvhRig::vertex_count(self)
     }
     fn triangles(&self) -> &[[u32; 3]] {
-        self.rig.triangles()
+        BvhRig::triangles(self)
     }
-    fn evaluate_batch(&self, poses: &[f64], out: &mut [f64]) -> Result<(), RigError> {
-        par_batch(self, poses, out, |p, o| self.rig.evaluate(p, o))
-    }
-}
-
-/// A glTF character behind [`Rig`].
-pub struct GltfCharacter {
-    rig: GltfRig,
-    names: Vec<String>,
-    path: String,
-}
-
-impl GltfCharacter {
-    /// Opens the character of `path` (relative to `base`), checking its content hash.
-    pub fn open(base: &Path, path: &str, blake3: &str) -> Result<Self, RigError> {
-        let full = check_hash(base, path, blake3)?;
-        let rig = GltfRig::open(&full).map_err(|e| RigError::Open { rig: path.into(), message: e.to_string() })?;
-        Ok(Self { names: rig.control_names().to_vec(), rig, path: path.into() })
+    fn evaluate_pose(&self, pose: &[f64], out: &mut [f64]) {
+        self.evaluate(pose, out);
     }
 }
 
-impl Rig for GltfCharacter {
+impl PoseEvaluator for GltfRig {
     fn describe(&self) -> String {
-        format!("glTF `{}`", self.path)
+        format!("glTF character ({} controls, {} vertices)", GltfRig::control_names(self).len(), self.vertex_count())
     }
-    fn control_names(&self) -> &[String] {
-        &self.names
+    fn control_names(&self) -> Vec<String> {
+        GltfRig::control_names(self).to_vec()
     }
     fn rest_pose(&self) -> Vec<f64> {
-        self.rig.default_controls()
+        self.default_controls()
     }
     fn vertex_count(&self) -> usize {
-        self.rig.vertex_count()
+        GltfRig::vertex_count(self)
     }
     fn triangles(&self) -> &[[u32; 3]] {
-        self.rig.triangles()
+        GltfRig::triangles(self)
     }
-    fn evaluate_batch(&self, poses: &[f64], out: &mut [f64]) -> Result<(), RigError> {
-        par_batch(self, poses, out, |p, o| self.rig.evaluate(p, o))
+    fn evaluate_pose(&self, pose: &[f64], out: &mut [f64]) {
+        self.evaluate(pose, out);
     }
 }

@@ -111,18 +111,14 @@ fn rigs(args: &Args, dir: &Path) -> Result<()> {
     println!("## Rig evaluations per second ({} threads)\n", num_cpus());
     println!("| rig | controls | vertices | evaluations/s |\n|---|---:|---:|---:|");
     let frames = reprise_artifact::frames::Frames::read(&dir.join("artifacts/dragon-face/frames.parquet"))?;
-    let dragon = reprise_rig::dragon::Dragon::open(7, reprise_dragonface::DragonRig::VERSION)?;
+    let dragon = reprise_rig::dragon::open(7, reprise_dragonface::DragonRig::VERSION)?;
     let poses: Vec<f64> = frames.values[..1000.min(frames.rows()) * frames.controls.len()].to_vec();
     let r = rate(&dragon, &poses)?;
     println!("| dragon-face | {} | {} | {r:.0} |", frames.controls.len(), dragon.vertex_count());
     let cmu = args.repo.join("../shared/datasets/cmu_bvh/131_01.bvh");
     if cmu.exists() {
         let hash = reprise_artifact::provenance::hash_file(&cmu)?;
-        let rig = reprise_rig::skeleton::BvhSkeleton::open(
-            Path::new("/"),
-            &cmu.canonicalize()?.display().to_string(),
-            &hash,
-        )?;
+        let rig = reprise_rig::skeleton::open_bvh(Path::new("/"), &cmu.canonicalize()?.display().to_string(), &hash)?;
         let poses: Vec<f64> = (0..1000).flat_map(|_| rig.rest_pose()).collect();
         let r = rate(&rig, &poses)?;
         println!("| CMU BVH 131_01 | {} | {} | {r:.0} |", rig.control_names().len(), rig.vertex_count());
@@ -133,7 +129,7 @@ fn rigs(args: &Args, dir: &Path) -> Result<()> {
     if robot.exists() {
         let hash = reprise_artifact::provenance::hash_file(&robot)?;
         let path = robot.canonicalize()?.display().to_string();
-        let rig = reprise_rig::skeleton::GltfCharacter::open(Path::new("/"), &path, &hash)?;
+        let rig = reprise_rig::skeleton::open_gltf(Path::new("/"), &path, &hash)?;
         let poses: Vec<f64> = (0..500).flat_map(|_| rig.rest_pose()).collect();
         let r = rate(&rig, &poses)?;
         println!("| RobotExpressive (glTF) | {} | {} | {r:.0} |", rig.control_names().len(), rig.vertex_count());
