@@ -26,6 +26,8 @@ mod rig;
 mod skinning;
 
 pub use controls::{ControlSpec, Unit};
-pub use corpus::{generate_corpus, Corpus, Take, TakeKind, BAD_RANGE_FRAMES, FPS, GOOD_FRAME_BUDGET, LABELS};
+pub use corpus::{
+    generate_corpus, generate_corpus_scaled, Corpus, Take, TakeKind, BAD_RANGE_FRAMES, FPS, GOOD_FRAME_BUDGET, LABELS,
+};
 pub use labels::labels_toml;
 pub use rig::DragonRig;

@@ -5,12 +5,13 @@
 use reprise_artifact::clips::Clip;
 use reprise_artifact::controls::{Control, Controls, RigRef};
 use reprise_artifact::frames::Frames;
-use reprise_dragonface::{generate_corpus, DragonRig};
+use reprise_dragonface::{generate_corpus_scaled, DragonRig};
 
-/// Frames, controls and clips of the dragon-face corpus for `seed`.
-pub(crate) fn generate(seed: u64) -> (Frames, Controls, Vec<Clip>) {
+/// Frames, controls and clips of the dragon-face corpus for `seed`, its frame budget
+/// scaled by `scale`.
+pub(crate) fn generate(seed: u64, scale: f64) -> (Frames, Controls, Vec<Clip>) {
     let rig = DragonRig::new(seed);
-    let corpus = generate_corpus(&rig, seed);
+    let corpus = generate_corpus_scaled(&rig, seed, scale);
     let names: Vec<String> = rig.controls().iter().map(|c| c.name.clone()).collect();
     let n = names.len();
     let mut frames = Frames {

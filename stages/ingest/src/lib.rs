@@ -61,6 +61,10 @@ pub struct Args {
     /// Generator seed (the corpus and rig are deterministic in it).
     #[arg(long, default_value_t = 7)]
     pub seed: u64,
+    /// Generator corpus size: every label's frame budget times this (1 = the paper's
+    /// 3,745 labeled frames; 7.7 ≈ 20 minutes). Other values need their own labels file.
+    #[arg(long, default_value_t = 1.0)]
+    pub corpus_scale: f64,
     /// Curve table layout.
     #[arg(long, value_enum, default_value_t = Layout::Auto)]
     pub layout: Layout,
@@ -138,6 +142,9 @@ impl Args {
 
     fn validate(&self) -> StageResult<()> {
         self.source()?;
+        if !(self.corpus_scale >= 0.1 && self.corpus_scale <= 100.0) {
+            return Err(StageError::Config(format!("--corpus-scale must be in [0.1, 100], got {}", self.corpus_scale)));
+        }
         for (flag, rate) in [("--fps", Some(self.fps)), ("--source-fps", self.source_fps)] {
             if let Some(r) = rate.filter(|r| !(r.is_finite() && *r > 0.0)) {
                 return Err(StageError::Config(format!(
@@ -176,7 +183,7 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     }
     let mut provenance = reprise_stagekit::provenance("ingest", env!("CARGO_PKG_VERSION"), args);
     let (frames, controls, clips) = match args.source()? {
-        Source::Generate(Generator::DragonFace) => dragon::generate(args.seed),
+        Source::Generate(Generator::DragonFace) => dragon::generate(args.seed, args.corpus_scale),
         Source::Curves(path) => {
             provenance = provenance.with_input("curves", path)?;
             from_table(args, path)?

@@ -17,6 +17,7 @@ fn args(dir: &Path, name: &str, text: &str) -> Args {
         gltf: None,
         generate: None,
         seed: 7,
+        corpus_scale: 1.0,
         layout: Layout::Auto,
         fps: 24.0,
         source_fps: None,

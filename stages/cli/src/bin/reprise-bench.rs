@@ -1,7 +1,8 @@
 //! `reprise-bench`: the benchmarks, one command. Prints a Markdown report of
 //! - the default pipeline: seconds and peak memory per stage, and a no-op rerun;
 //! - rig evaluations per second (dragon-face; CMU BVH where `../shared/datasets` exists);
-//! - ingest of a 20-minute, 742-control corpus (28,800 frames) from a Parquet curve table.
+//! - ingest of a 20-minute, 742-control corpus (28,800 frames) from a Parquet curve table;
+//! - the whole pipeline on a 20-minute dragon-face corpus: seconds and peak memory per stage.
 //!
 //! Run from the repository root after `cargo build --release`:
 //! `target/release/reprise-bench`.
@@ -46,6 +47,8 @@ fn bench(args: &Args) -> Result<()> {
     pipeline(args, dir.path())?;
     rigs(args, dir.path())?;
     big_ingest(args, dir.path())?;
+    let big = tempfile::tempdir()?;
+    film_scale(args, big.path())?;
     Ok(())
 }
 
@@ -53,32 +56,43 @@ fn num_cpus() -> usize {
     std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
 }
 
-/// The default pipeline in a scratch copy, then a no-op rerun.
-fn pipeline(args: &Args, dir: &Path) -> Result<()> {
-    std::fs::copy(args.repo.join("pipeline.toml"), dir.join("pipeline.toml"))?;
+/// Runs `pipeline_toml` (with `labels` as datasets/dragon-face/labels.toml) in `dir`,
+/// then once more with nothing changed; returns both wall times and the lock file.
+fn run_pipeline(dir: &Path, pipeline_toml: &str, labels: &str) -> Result<(f64, f64, serde_json::Value)> {
     std::fs::create_dir_all(dir.join("datasets/dragon-face"))?;
-    std::fs::copy(args.repo.join("datasets/dragon-face/labels.toml"), dir.join("datasets/dragon-face/labels.toml"))?;
-    let run = |what: &str| -> Result<f64> {
+    std::fs::write(dir.join("pipeline.toml"), pipeline_toml)?;
+    std::fs::write(dir.join("datasets/dragon-face/labels.toml"), labels)?;
+    let run = || -> Result<f64> {
         let t = Instant::now();
         let out = Command::new(bin("reprise")).arg("run").current_dir(dir).output()?;
         if !out.status.success() {
-            return Err(format!("{what} failed: {}", String::from_utf8_lossy(&out.stderr)).into());
+            return Err(format!("the pipeline failed: {}", String::from_utf8_lossy(&out.stderr)).into());
         }
         Ok(t.elapsed().as_secs_f64())
     };
-    let first = run("the default pipeline")?;
-    let again = run("the rerun")?;
-    let lock: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("artifacts/dragon-face/reprise.lock"))?)?;
-    println!("## Default pipeline (dragon-face)\n");
+    let first = run()?;
+    let again = run()?;
+    let lock = serde_json::from_str(&std::fs::read_to_string(dir.join("artifacts/dragon-face/reprise.lock"))?)?;
+    Ok((first, again, lock))
+}
+
+/// A Markdown table of each stage's seconds and peak memory from a lock file.
+fn print_stages(lock: &serde_json::Value, first: f64, again: f64) {
     println!("| stage | seconds | peak memory (MB) |\n|---|---:|---:|");
-    if let Some(stages) = lock["stages"].as_object() {
-        for (name, entry) in stages {
-            let mb = entry["peak_rss_mb"].as_f64().map_or("-".into(), |m| format!("{m:.0}"));
-            println!("| {name} | {:.2} | {mb} |", entry["seconds"].as_f64().unwrap_or(f64::NAN));
-        }
+    for (name, entry) in lock["stages"].as_object().into_iter().flatten() {
+        let mb = entry["peak_rss_mb"].as_f64().map_or("-".into(), |m| format!("{m:.0}"));
+        println!("| {name} | {:.2} | {mb} |", entry["seconds"].as_f64().unwrap_or(f64::NAN));
     }
     println!("| **whole run** | {first:.2} | |\n| no-op rerun | {again:.3} | |\n");
+}
+
+/// The default pipeline in a scratch copy, then a no-op rerun, and artifact sizes.
+fn pipeline(args: &Args, dir: &Path) -> Result<()> {
+    let toml = std::fs::read_to_string(args.repo.join("pipeline.toml"))?;
+    let labels = std::fs::read_to_string(args.repo.join("datasets/dragon-face/labels.toml"))?;
+    let (first, again, lock) = run_pipeline(dir, &toml, &labels)?;
+    println!("## Default pipeline (dragon-face, 3,745 labeled frames)\n");
+    print_stages(&lock, first, again);
     let mut sizes: Vec<(String, u64)> = std::fs::read_dir(dir.join("artifacts/dragon-face"))?
         .filter_map(|e| e.ok())
         .filter(|e| e.path().extension().is_some_and(|x| x == "parquet"))
@@ -90,6 +104,27 @@ fn pipeline(args: &Args, dir: &Path) -> Result<()> {
         println!("| {name} | {:.0} |", bytes as f64 / 1024.0);
     }
     println!();
+    Ok(())
+}
+
+/// The same pipeline on a dragon-face corpus of `minutes` minutes (every label's budget
+/// scaled), with the labels file the generator writes for that corpus.
+fn film_scale(args: &Args, dir: &Path) -> Result<()> {
+    let scale = args.minutes * 60.0 * 24.0 / 3745.0;
+    let toml = std::fs::read_to_string(args.repo.join("pipeline.toml"))?
+        .replace("seed = 7\n", &format!("seed = 7\ncorpus_scale = {scale}\n"));
+    let rig = reprise_dragonface::DragonRig::new(7);
+    let labels = reprise_dragonface::labels_toml(&reprise_dragonface::generate_corpus_scaled(&rig, 7, scale));
+    let (first, again, lock) = run_pipeline(dir, &toml, &labels)?;
+    let frames =
+        reprise_artifact::frames::LabeledFrames::read(&dir.join("artifacts/dragon-face/labeled_frames.parquet"))?;
+    println!(
+        "## The pipeline at film scale ({} minutes: {} labeled frames × {} controls)\n",
+        args.minutes,
+        frames.frames.rows(),
+        frames.frames.controls.len()
+    );
+    print_stages(&lock, first, again);
     Ok(())
 }
 
@@ -140,8 +175,8 @@ fn rigs(args: &Args, dir: &Path) -> Result<()> {
     Ok(())
 }
 
-/// A `minutes`-long wide Parquet table tiled from the dragon-face corpus, ingested by
-/// the real stage binary.
+/// A `minutes`-long wide Parquet curve table (tiled from the dragon-face corpus),
+/// ingested by the real stage binary: the curve-table path at film scale.
 fn big_ingest(args: &Args, dir: &Path) -> Result<()> {
     use reprise_artifact::{table, Columns, Kind, Provenance};
     let frames = reprise_artifact::frames::Frames::read(&dir.join("artifacts/dragon-face/frames.parquet"))?;
@@ -183,7 +218,7 @@ fn big_ingest(args: &Args, dir: &Path) -> Result<()> {
         return Err(format!("ingest failed: {}", String::from_utf8_lossy(&out.stderr)).into());
     }
     let peak: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats)?)?;
-    println!("## Ingest of a {}-minute corpus\n", args.minutes);
+    println!("## Ingest of a {}-minute curve table\n", args.minutes);
     println!(
         "{rows} frames × {} controls from a {:.0} MiB Parquet table: {seconds:.2} s, peak memory {:.0} MB\n",
         frames.controls.len(),
