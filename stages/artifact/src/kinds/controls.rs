@@ -125,3 +125,35 @@ impl Controls {
         Ok(Self { controls, rig })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every rig reference survives the metadata round trip.
+    #[test]
+    fn controls_and_rig_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.parquet");
+        let control = Control {
+            name: "Hips.rx".into(),
+            group: "joints".into(),
+            unit: "rad".into(),
+            default: 0.0,
+            min: -1.0,
+            max: 1.0,
+            animated: true,
+        };
+        for rig in [
+            RigRef::DragonFace { seed: 7, version: "v".into() },
+            RigRef::Gltf { path: "a.glb".into(), blake3: "00".into() },
+            RigRef::Bvh { path: "a.bvh".into(), blake3: "11".into() },
+            RigRef::External { command: vec!["rig".into(), "--fast".into()] },
+            RigRef::None,
+        ] {
+            let table = Controls { controls: vec![control.clone()], rig };
+            table.write(&path, &Provenance::new("ingest", "0", serde_json::json!({}))).unwrap();
+            assert_eq!(Controls::read(&path).unwrap(), table);
+        }
+    }
+}

@@ -211,3 +211,43 @@ pub fn write_errors(path: &Path, rows: &[PcaError], provenance: &Provenance) -> 
         .f64_opt("mesh_rmse", rows.iter().map(|r| r.mesh_rmse).collect());
     crate::table::write(path, PCA_ERRORS, cols, provenance, &[])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn prov() -> Provenance {
+        Provenance::new("test", "0", serde_json::json!({}))
+    }
+
+    /// Models of different dimension, and coordinates whose rows stop at their own d,
+    /// come back as written.
+    #[test]
+    fn models_and_coords_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let controls: Vec<String> = ["a", "b", "c"].map(String::from).to_vec();
+        let m = |label: &str, d: usize| PcaModel {
+            label: label.into(),
+            variant: SCALED.into(),
+            mean: vec![1.0, 2.0, 3.0],
+            directions: (0..d * 3).map(|i| i as f64 / 10.0).collect(),
+            singular_values: (0..d).map(|i| 5.0 - i as f64).collect(),
+            explained: (0..d).map(|i| 0.5 / (i + 1) as f64).collect(),
+        };
+        let models = vec![m("x", 2), m("y", 1)];
+        let path = dir.path().join("m.parquet");
+        write_models(&path, &controls, &models, &prov()).unwrap();
+        assert_eq!(read_models(&path).unwrap(), (controls, models));
+        let coords = PcaCoords {
+            label: vec!["x".into(), "y".into()],
+            variant: vec![SCALED.into(), SCALED.into()],
+            segment_id: vec![0, 1],
+            clip: vec!["c0".into(), "c1".into()],
+            frame: vec![0, 0],
+            y: vec![vec![0.5, -0.5], vec![1.5]],
+        };
+        let path = dir.path().join("c.parquet");
+        write_coords(&path, &coords, &prov()).unwrap();
+        assert_eq!(read_coords(&path).unwrap(), coords);
+    }
+}

@@ -78,3 +78,38 @@ pub fn read(path: &Path) -> Result<Vec<Scale>> {
         })
         .collect())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.parquet");
+        let rows = vec![
+            Scale {
+                label: "happy".into(),
+                control: "jaw_open".into(),
+                mean: 0.2,
+                std: 0.1,
+                weight: 3.5,
+                residual: 0.01,
+                used: true,
+                reason: String::new(),
+            },
+            Scale {
+                label: "happy".into(),
+                control: "tweak_1".into(),
+                mean: 0.0,
+                std: 0.0,
+                weight: 0.0,
+                residual: 0.0,
+                used: false,
+                reason: "constant".into(),
+            },
+        ];
+        write(&path, &rows, &Provenance::new("scale", "0", serde_json::json!({}))).unwrap();
+        assert_eq!(read(&path).unwrap(), rows);
+    }
+}
