@@ -3,8 +3,12 @@
 //!
 //! - [`scaling`]: the per-control weights of Bailey et al. 2016, Eq. 3.
 //! - [`pca`]: principal component analysis by a dense thin SVD (faer).
+//! - [`gplvm`]: the RBF + white GPLVM likelihood, dynamics and connectivity priors, their
+//!   gradients, and prediction; [`scg`]: the Netlab scaled conjugate gradient optimiser.
 #![warn(missing_docs)]
 
+pub mod gplvm;
 pub mod pca;
 pub mod scaling;
+pub mod scg;
 pub mod stats;

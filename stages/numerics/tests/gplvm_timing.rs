@@ -1,0 +1,125 @@
+//! Timings of the GPLVM objective (a benchmark, not a timed test): run with
+//! `cargo test --release -p reprise-numerics --test gplvm_timing -- --ignored --nocapture`.
+//!
+//! For N = 200, 400, 800 (D = 40, q = 3), single thread unless stated: the objective and
+//! gradient plain (likelihood only) and with both priors; each prior alone; and the
+//! "O(N³) floor" — a faer Cholesky plus the SPD inverse from it, which any exact gradient
+//! needs (GPy's reference measures dpotrf + dpotri the same way).
+
+use std::time::Instant;
+
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::llt;
+use faer::{Mat, Par};
+use rand::{Rng, SeedableRng};
+use reprise_numerics::gplvm::{
+    ConnectivityParams, ConnectivityPrior, DynamicsParams, DynamicsPrior, Hyper, Likelihood, LikelihoodConfig,
+    Objective,
+};
+
+/// Median wall time in ms of `reps` runs after one warm-up.
+fn median_ms(reps: usize, mut f: impl FnMut()) -> f64 {
+    f();
+    let mut t: Vec<f64> = (0..reps)
+        .map(|_| {
+            let s = Instant::now();
+            f();
+            s.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t[reps / 2]
+}
+
+fn problem(n: usize, d: usize, q: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(n as u64);
+    let x: Vec<f64> = (0..n * q).map(|_| rng.gen_range(-2.0..2.0)).collect();
+    let y: Vec<f64> = (0..n * d).map(|_| rng.gen_range(-1.0..1.0)).collect();
+    (x, y)
+}
+
+fn objective(n: usize, y: &[f64], priors: bool, par: Par) -> Objective {
+    let (d, q) = (40, 3);
+    let lik = Likelihood::new(y, d, q, LikelihoodConfig { par, ..Default::default() }).unwrap();
+    if !priors {
+        return Objective::new(lik, None, None).unwrap();
+    }
+    let times: Vec<f64> = (0..n).map(|i| (i % 100) as f64).collect();
+    let seg: Vec<usize> = (0..n).map(|i| i / 100).collect();
+    let dp = DynamicsPrior::new(&times, &seg, q, DynamicsParams::default()).unwrap();
+    let cp = ConnectivityPrior::new(n, q, ConnectivityParams { par, ..Default::default() }).unwrap();
+    Objective::new(lik, Some(dp), Some(cp)).unwrap()
+}
+
+#[test]
+#[ignore]
+fn timing_table() {
+    let (d, q) = (40, 3);
+    let hyper = Hyper { rbf_variance: 1.0, lengthscale: 1.0, white_variance: 0.1 };
+    println!(
+        "| N | objective+grad plain (ms) | with both priors (ms) | connectivity alone (ms) | dynamics alone (ms) \
+         | Cholesky + inverse (ms) | plain, Par::rayon(2) (ms) | both priors, Par::rayon(2) (ms) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for n in [200, 400, 800] {
+        let reps = if n >= 800 { 7 } else { 11 };
+        let (x, y) = problem(n, d, q);
+        let mut plain = objective(n, &y, false, Par::Seq);
+        let p = plain.layout().pack(&x, &hyper);
+        let mut g = vec![0.0; p.len()];
+        let t_plain = median_ms(reps, || {
+            plain.evaluate(&p, &mut g);
+        });
+        assert!(plain.last().error.is_none());
+        let mut full = objective(n, &y, true, Par::Seq);
+        let t_full = median_ms(reps, || {
+            full.evaluate(&p, &mut g);
+        });
+        assert!(full.last().error.is_none());
+        let mut conn = ConnectivityPrior::new(n, q, ConnectivityParams::default()).unwrap();
+        let mut gx = vec![0.0; n * q];
+        let t_conn = median_ms(reps, || {
+            conn.value_grad_add(&x, &mut gx).unwrap();
+        });
+        let times: Vec<f64> = (0..n).map(|i| (i % 100) as f64).collect();
+        let seg: Vec<usize> = (0..n).map(|i| i / 100).collect();
+        let mut dynp = DynamicsPrior::new(&times, &seg, q, DynamicsParams::default()).unwrap();
+        let t_dyn = median_ms(reps, || {
+            dynp.value_grad_add(&x, &mut gx).unwrap();
+        });
+        // The O(N³) floor: Cholesky + SPD inverse of a well-conditioned kernel matrix.
+        let k = Mat::<f64>::from_fn(n, n, |i, j| {
+            let d2: f64 = (0..q).map(|c| (x[i * q + c] - x[j * q + c]).powi(2)).sum();
+            (-0.5 * d2).exp() + if i == j { 0.1 } else { 0.0 }
+        });
+        let mut l = Mat::<f64>::zeros(n, n);
+        let mut inv = Mat::<f64>::zeros(n, n);
+        let mut mem = MemBuffer::new(StackReq::any_of(&[
+            llt::factor::cholesky_in_place_scratch::<f64>(n, Par::Seq, Default::default()),
+            llt::inverse::inverse_scratch::<f64>(n, Par::Seq),
+        ]));
+        let t_floor = median_ms(reps, || {
+            l.copy_from(&k);
+            llt::factor::cholesky_in_place(
+                l.as_mut(),
+                Default::default(),
+                Par::Seq,
+                MemStack::new(&mut mem),
+                Default::default(),
+            )
+            .unwrap();
+            llt::inverse::inverse(inv.as_mut(), l.as_ref(), Par::Seq, MemStack::new(&mut mem));
+        });
+        let mut par2 = objective(n, &y, false, Par::rayon(2));
+        let t_par = median_ms(reps, || {
+            par2.evaluate(&p, &mut g);
+        });
+        let mut full2 = objective(n, &y, true, Par::rayon(2));
+        let t_full2 = median_ms(reps, || {
+            full2.evaluate(&p, &mut g);
+        });
+        println!(
+            "| {n} | {t_plain:.2} | {t_full:.2} | {t_conn:.2} | {t_dyn:.3} | {t_floor:.2} | {t_par:.2} | {t_full2:.2} |"
+        );
+    }
+}
