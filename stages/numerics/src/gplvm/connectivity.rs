@@ -261,17 +261,7 @@ impl ConnectivityPrior {
                 *dst = v * ea;
             }
         }
-        tri_matmul(
-            self.b2.as_mut(),
-            BlockStructure::TriangularLower,
-            Accum::Replace,
-            self.b1.as_ref(),
-            BlockStructure::Rectangular,
-            self.u.transpose(),
-            BlockStructure::Rectangular,
-            1.0,
-            par,
-        );
+        lower_times(&mut self.b2, &self.b1, self.u.transpose(), par);
         let min = self.params.min_entry;
         let (mut sum_log, mut clamped) = (0.0, 0usize);
         for j in 0..n {
@@ -325,17 +315,7 @@ impl ConnectivityPrior {
         mirror_lower(self.b2.as_mut());
         // Ψ = (Uᵀ G_c) U, lower; then Ψ ∘ Φ, mirrored.
         matmul(self.b1.as_mut(), Accum::Replace, self.u.transpose(), self.b2.as_ref(), 1.0, par);
-        tri_matmul(
-            self.b2.as_mut(),
-            BlockStructure::TriangularLower,
-            Accum::Replace,
-            self.b1.as_ref(),
-            BlockStructure::Rectangular,
-            self.u.as_ref(),
-            BlockStructure::Rectangular,
-            1.0,
-            par,
-        );
+        lower_times(&mut self.b2, &self.b1, self.u.as_ref(), par);
         for b in 0..n {
             let lb = self.lambda[(b, 0)];
             let eb = self.e[b];
@@ -348,17 +328,7 @@ impl ConnectivityPrior {
         mirror_lower(self.b2.as_mut());
         // M = (U Ψ∘Φ) Uᵀ, lower, in b2.
         matmul(self.b1.as_mut(), Accum::Replace, self.u.as_ref(), self.b2.as_ref(), 1.0, par);
-        tri_matmul(
-            self.b2.as_mut(),
-            BlockStructure::TriangularLower,
-            Accum::Replace,
-            self.b1.as_ref(),
-            BlockStructure::Rectangular,
-            self.u.transpose(),
-            BlockStructure::Rectangular,
-            1.0,
-            par,
-        );
+        lower_times(&mut self.b2, &self.b1, self.u.transpose(), par);
         // e_i = −(M(H+I))_ii / T_ii with (H+I) = SWS, W_ii = 0.
         let mut r = std::mem::take(&mut self.e);
         r.fill(0.0);
@@ -453,6 +423,21 @@ fn mirror_lower(mut m: MatMut<'_, f64>) {
             m[(j, i)] = v;
         }
     }
+}
+
+/// `dst ← lower(a · b)`: only the lower triangle of the (symmetric) product is formed.
+fn lower_times(dst: &mut Mat<f64>, a: &Mat<f64>, b: faer::MatRef<'_, f64>, par: Par) {
+    tri_matmul(
+        dst.as_mut(),
+        BlockStructure::TriangularLower,
+        Accum::Replace,
+        a.as_ref(),
+        BlockStructure::Rectangular,
+        b,
+        BlockStructure::Rectangular,
+        1.0,
+        par,
+    );
 }
 
 #[cfg(test)]
