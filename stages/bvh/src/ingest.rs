@@ -19,18 +19,9 @@ use crate::parse;
 use crate::rotation::{self, Quat};
 use crate::skeleton::{Bvh, ControlKind, Node};
 
-/// Description of one control (a column of [`BvhCurves::values`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct ControlInfo {
-    pub name: String,
-    pub group: String,
-    pub unit: String,
-    pub default: f64,
-    /// Smallest value in the resampled clip.
-    pub min: f64,
-    /// Largest value in the resampled clip.
-    pub max: f64,
-}
+/// Description of one control (a column of [`BvhCurves::values`]): the pipeline's
+/// controls-table row, with `min`/`max` observed over the resampled clip.
+pub use reprise_artifact::controls::Control as ControlInfo;
 
 /// One clip of rig-control curves.
 #[derive(Debug, Clone, PartialEq)]
@@ -144,7 +135,15 @@ pub fn resample(bvh: &Bvh, clip: &str, fps: f64) -> Result<BvhCurves, BvhError> 
                 ControlKind::Translation => "bvh",
                 ControlKind::Rotation => "rad",
             };
-            ControlInfo { name: spec.name.clone(), group: "joints".into(), unit: unit.into(), default: 0.0, min, max }
+            ControlInfo {
+                name: spec.name.clone(),
+                group: "joints".into(),
+                unit: unit.into(),
+                default: 0.0,
+                min,
+                max,
+                animated: max > min,
+            }
         })
         .collect();
     Ok(BvhCurves { fps, clip: clip.to_string(), source_fps, frames: count, controls, values })

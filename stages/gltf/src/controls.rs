@@ -16,20 +16,10 @@
 use crate::load::Loaded;
 use crate::scene::{unique_names, SceneGraph};
 
-/// One rig control, as the pipeline's control table lists it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ControlInfo {
-    pub name: String,
-    /// `joints` or `morphs`.
-    pub group: String,
-    /// `rad`, `m`, `ratio` or `weight`.
-    pub unit: String,
-    pub default: f64,
-    /// Observed minimum over all clips (ingest); the default when built without clips.
-    pub min: f64,
-    /// Observed maximum over all clips (ingest); the default when built without clips.
-    pub max: f64,
-}
+/// One rig control, as the pipeline's control table lists it: group `joints` or
+/// `morphs`; unit `rad`, `m`, `ratio` or `weight`; `min`/`max` observed over all clips
+/// by ingest (the default when built without clips), and `animated` when they differ.
+pub use reprise_artifact::controls::Control as ControlInfo;
 
 /// Where one animated node's controls sit in the control vector.
 #[derive(Debug, Clone, Default)]
@@ -111,6 +101,7 @@ pub(crate) fn layout(l: &Loaded, graph: &SceneGraph) -> Layout {
                 default,
                 min: default,
                 max: default,
+                animated: false,
             });
         }
         first
@@ -140,6 +131,7 @@ pub(crate) fn layout(l: &Loaded, graph: &SceneGraph) -> Layout {
                         default: d,
                         min: d,
                         max: d,
+                        animated: false,
                     });
                 }
             }

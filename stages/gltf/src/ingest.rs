@@ -80,6 +80,7 @@ pub fn ingest(path: &Path, fps: f64) -> Result<GltfCurves, GltfError> {
         if lo <= hi {
             (info.min, info.max) = (lo, hi);
         }
+        info.animated = hi > lo;
     }
     Ok(GltfCurves { fps, controls, clips })
 }

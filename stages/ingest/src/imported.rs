@@ -5,16 +5,6 @@ use reprise_artifact::clips::Clip;
 use reprise_artifact::controls::{Control, Controls, RigRef};
 use reprise_artifact::frames::Frames;
 
-/// One control as a character format describes it.
-pub(crate) struct ImportedControl {
-    pub(crate) name: String,
-    pub(crate) group: String,
-    pub(crate) unit: String,
-    pub(crate) default: f64,
-    pub(crate) min: f64,
-    pub(crate) max: f64,
-}
-
 /// One clip: name, frame count, source rate, row-major values.
 pub(crate) struct ImportedClip {
     pub(crate) name: String,
@@ -26,7 +16,7 @@ pub(crate) struct ImportedClip {
 /// Frames, controls and clips of a decoded character file.
 pub(crate) fn tables(
     fps: f64,
-    controls: Vec<ImportedControl>,
+    controls: Vec<Control>,
     clips: Vec<ImportedClip>,
     source: &str,
     rig: RigRef,
@@ -47,22 +37,7 @@ pub(crate) fn tables(
         }
         frames.values.extend_from_slice(&clip.values);
     }
-    let table = Controls {
-        controls: controls
-            .into_iter()
-            .enumerate()
-            .map(|(c, info)| Control {
-                animated: crate::dragon::moves(&frames, c),
-                name: info.name,
-                group: info.group,
-                unit: info.unit,
-                default: info.default,
-                min: info.min,
-                max: info.max,
-            })
-            .collect(),
-        rig,
-    };
+    let table = Controls { controls, rig };
     let clips = clips
         .iter()
         .map(|c| Clip {
@@ -79,44 +54,20 @@ pub(crate) fn tables(
 /// A BVH file: one clip named by the file stem; the skeleton is the rig.
 pub(crate) fn bvh(path: &std::path::Path, fps: f64, blake3: String) -> Result<(Frames, Controls, Vec<Clip>), String> {
     let curves = reprise_bvh::ingest(path, fps).map_err(|e| e.to_string())?;
-    let controls = curves
-        .controls
-        .into_iter()
-        .map(|c| ImportedControl {
-            name: c.name,
-            group: c.group,
-            unit: c.unit,
-            default: c.default,
-            min: c.min,
-            max: c.max,
-        })
-        .collect();
     let clip =
         ImportedClip { name: curves.clip, frames: curves.frames, source_fps: curves.source_fps, values: curves.values };
     let source = path.display().to_string();
-    Ok(tables(fps, controls, vec![clip], &source, RigRef::Bvh { path: source.clone(), blake3 }))
+    Ok(tables(fps, curves.controls, vec![clip], &source, RigRef::Bvh { path: source.clone(), blake3 }))
 }
 
 /// A glTF file: one clip per named animation; its skins and morph targets are the rig.
 pub(crate) fn gltf(path: &std::path::Path, fps: f64, blake3: String) -> Result<(Frames, Controls, Vec<Clip>), String> {
     let curves = reprise_gltf::ingest(path, fps).map_err(|e| e.to_string())?;
-    let controls = curves
-        .controls
-        .into_iter()
-        .map(|c| ImportedControl {
-            name: c.name,
-            group: c.group,
-            unit: c.unit,
-            default: c.default,
-            min: c.min,
-            max: c.max,
-        })
-        .collect();
     let clips = curves
         .clips
         .into_iter()
         .map(|c| ImportedClip { name: c.name, frames: c.frames, source_fps: c.source_fps, values: c.values })
         .collect();
     let source = path.display().to_string();
-    Ok(tables(fps, controls, clips, &source, RigRef::Gltf { path: source.clone(), blake3 }))
+    Ok(tables(fps, curves.controls, clips, &source, RigRef::Gltf { path: source.clone(), blake3 }))
 }
