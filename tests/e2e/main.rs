@@ -6,6 +6,7 @@ mod util;
 mod bvh_pipeline;
 mod default_pipeline;
 mod external_rig;
+mod gplvm_stage;
 mod pipeline_errors;
 mod python_readers;
 mod robot_pipeline;

@@ -10,6 +10,7 @@
 //! | `labeled_frames` | [`frames`] | label | scale, pca, motion-graph, evaluate |
 //! | `scales` | [`scales`] | scale | pca, bridges, synthesize |
 //! | `pca_models`, `pca_coords`, `pca_errors` | [`pca`] | pca | gplvm, bridges, evaluate |
+//! | `gplvm_latents`, `gplvm_models`, `gplvm_trace`, `gplvm_fits` | [`gplvm`] | gplvm | bridges, synthesize, evaluate |
 //!
 //! Every file carries provenance ([`provenance`]) in its Parquet key-value metadata and
 //! is written atomically ([`table::write_atomic`]).
@@ -22,11 +23,12 @@ mod kinds {
     pub mod clips;
     pub mod controls;
     pub mod frames;
+    pub mod gplvm;
     pub mod pca;
     pub mod scales;
     pub mod segments;
 }
-pub use kinds::{clips, controls, frames, pca, scales, segments};
+pub use kinds::{clips, controls, frames, gplvm, pca, scales, segments};
 
 pub use error::{ArtifactError, Result};
 pub use provenance::Provenance;

@@ -159,26 +159,75 @@ fn fixture_matches_shared_reference() {
     assert_eq!(number_after(nj, "\"nll\":"), r.scalars["nojitter_nll"]);
 }
 
-/// method.md §4.5: from the same PCA start, this SCG (Netlab variant, log-space
-/// hyperparameters) reaches an objective comparable to GPy's `optimize('scg')` (paramz
-/// SCG, softplus hyperparameters: −34552.208 after 1000 iterations). Slow (~1 min):
-/// run with `--ignored`. Also fits with both priors and reports the parts.
+/// Trustworthiness (Venna & Kaski 2001) of the embedding `x` of the points `z` with `k`
+/// neighbours: $1 - \frac{2}{nk(2n-3k-1)}\sum_i\sum_{j\in U_k(i)}(r(i,j) - k)$, where
+/// $U_k(i)$ are the embedding's k nearest neighbours of $i$ that are not among the true
+/// ones and $r(i,j)$ the true rank of $j$. 1 = every embedded neighbourhood is a true one.
+fn trustworthiness(z: &[f64], x: &[f64], dz: usize, dx: usize, k: usize) -> f64 {
+    let n = z.len() / dz;
+    let ranks = |p: &[f64], d: usize, i: usize| -> Vec<usize> {
+        let mut o: Vec<(f64, usize)> = (0..n)
+            .filter(|&j| j != i)
+            .map(|j| ((0..d).map(|c| (p[i * d + c] - p[j * d + c]).powi(2)).sum::<f64>(), j))
+            .collect();
+        o.sort_by(|a, b| a.0.total_cmp(&b.0));
+        o.into_iter().map(|(_, j)| j).collect()
+    };
+    let mut penalty = 0.0;
+    for i in 0..n {
+        let (rz, rx) = (ranks(z, dz, i), ranks(x, dx, i));
+        let mut rank_z = vec![0usize; n];
+        rz.iter().enumerate().for_each(|(r, &j)| rank_z[j] = r + 1);
+        penalty += rx[..k].iter().map(|&j| rank_z[j]).filter(|&r| r > k).map(|r| (r - k) as f64).sum::<f64>();
+    }
+    1.0 - 2.0 / (n as f64 * k as f64 * (2.0 * n as f64 - 3.0 * k as f64 - 1.0)) * penalty
+}
+
+/// Share of points whose nearest other point in `x` lies in the same segment.
+fn one_nn_segment_accuracy(x: &[f64], q: usize, segment: &[i64]) -> f64 {
+    let n = segment.len();
+    let hits = (0..n)
+        .filter(|&i| {
+            let j = (0..n)
+                .filter(|&j| j != i)
+                .min_by(|&a, &b| {
+                    let d = |j: usize| (0..q).map(|c| (x[i * q + c] - x[j * q + c]).powi(2)).sum::<f64>();
+                    d(a).total_cmp(&d(b))
+                })
+                .unwrap();
+            segment[i] == segment[j]
+        })
+        .count();
+    hits as f64 / n as f64
+}
+
+/// The true latent curve of the reference data (fixture `latent_true.csv`).
+fn latent_true() -> Vec<f64> {
+    let (_, rows) = read_csv("latent_true.csv");
+    rows.iter().flat_map(|r| r[..3].to_vec()).collect()
+}
+
+/// method.md §4.5: from GPy's PCA start, this SCG (Netlab variant, log-space
+/// hyperparameters, 1000 iterations) reaches an objective at least as good as GPy's best
+/// (L-BFGS-B, −34552.445; its SCG reached −34552.208), and the fitted latents keep the
+/// true curve's neighbourhoods as well as the PCA start does or better (trustworthiness
+/// with 10 neighbours; 1-NN segment accuracy). Then with both priors, reporting the parts.
+/// About a minute per fit in release mode.
 #[test]
-#[ignore]
-fn scg_fit_reaches_gpy_objective() {
+fn scg_fit_reaches_gpy_objective_and_recovers_the_curve() {
     let r = load();
+    let z = latent_true();
     let hyper = Hyper { rbf_variance: 1.0, lengthscale: 1.0, white_variance: 1.0 };
     let opts = ScgOptions { max_iters: 1000, ..Default::default() };
+    let t0 = trustworthiness(&z, &r.x, 3, Q, 10);
     for priors in [false, true] {
         let lik = Likelihood::new(&r.y, D, Q, LikelihoodConfig::default()).unwrap();
         let (dynamics, connectivity) = if priors {
             // Frames are in time order within each segment; 200 frames each.
             let times: Vec<f64> = (0..N).map(|i| (i % 200) as f64).collect();
             let dp = DynamicsParams { lengthscale: 5.0, ..Default::default() };
-            (
-                Some(DynamicsPrior::new(&times, &r.segment, Q, dp).unwrap()),
-                Some(ConnectivityPrior::new(N, Q, ConnectivityParams::default()).unwrap()),
-            )
+            let cp = ConnectivityParams { weight: 1e-3, ..Default::default() };
+            (Some(DynamicsPrior::new(&times, &r.segment, Q, dp).unwrap()), Some(ConnectivityPrior::new(N, Q, cp).unwrap()))
         } else {
             (None, None)
         };
@@ -191,13 +240,18 @@ fn scg_fit_reaches_gpy_objective() {
         obj.evaluate(&res.x, &mut g);
         let info = obj.last().clone();
         let h = obj.layout().hyper(&res.x);
+        let x = obj.layout().x(&res.x);
+        let (t, acc) = (trustworthiness(&z, x, 3, Q, 10), one_nn_segment_accuracy(x, Q, &r.segment));
         eprintln!(
-            "SCG priors={priors}: {:?} in {secs:.1} s ({} evaluations); E = {:.3} (NLL {:.3}, dynamics {:.3}, connectivity {:.3}); {h:?}; jitter {:?}",
-            res.info, res.info.evaluations, info.value, info.likelihood, info.dynamics, info.connectivity, info.jitter
+            "SCG priors={priors}: {:?} in {secs:.1} s; E = {:.3} (NLL {:.3}, dynamics {:.3}, connectivity {:.3}); {h:?}; \
+             trustworthiness(10) {t:.4} (PCA start {t0:.4}); 1-NN segment accuracy {acc:.4}",
+            res.info, info.value, info.likelihood, info.dynamics, info.connectivity
         );
         assert!(res.trace.windows(2).all(|w| w[1].value <= w[0].value));
+        assert!(t >= t0 - 1e-3 && t > 0.95, "trustworthiness {t} (start {t0})");
+        assert!(acc > 0.95, "1-NN segment accuracy {acc}");
         if !priors {
-            assert!(info.likelihood < -34552.208 + 0.01 * 34552.208, "NLL {} vs GPy's SCG −34552.208", info.likelihood);
+            assert!(info.likelihood <= -34552.4, "NLL {} vs GPy's best −34552.445", info.likelihood);
         }
     }
 }

@@ -6,31 +6,10 @@ use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::pca::{PcaError, SCALED, UNSCALED};
 use reprise_numerics::pca::Pca;
 use reprise_rig::{PoseLayout, Rig};
-use reprise_stagekit::{StageError, StageResult};
+use reprise_stagekit::rig::{mesh_rmse, meshes};
+use reprise_stagekit::StageResult;
 
 use crate::LabelData;
-
-/// Frames evaluated per rig batch.
-const BATCH: usize = 256;
-
-/// Mesh positions of many table rows.
-fn meshes(rig: &(Box<dyn Rig>, PoseLayout), rows: &[Vec<f64>]) -> StageResult<Vec<f64>> {
-    let (rig, layout) = rig;
-    let m = 3 * rig.vertex_count();
-    let mut out = vec![0.0; rows.len() * m];
-    for (chunk, o) in rows.chunks(BATCH).zip(out.chunks_mut(BATCH * m)) {
-        let poses: Vec<f64> = chunk.iter().flat_map(|r| layout.full(r)).collect();
-        rig.evaluate_batch(&poses, o).map_err(|e| StageError::Input(e.to_string()))?;
-    }
-    Ok(out)
-}
-
-/// RMS over frames and vertices of the vertex distance between two mesh batches.
-fn mesh_rmse(a: &[f64], b: &[f64]) -> f64 {
-    let vertices = a.len() / 3;
-    let sq: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
-    (sq / vertices.max(1) as f64).sqrt()
-}
 
 /// Error rows for both variants at each variant's chosen d and at `fixed` d.
 pub(crate) fn measure(

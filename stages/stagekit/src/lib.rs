@@ -62,3 +62,11 @@ pub fn progress(len: u64, message: &str) -> ProgressBar {
     bar.set_message(message.to_string());
     bar
 }
+
+/// Progress bars shown together (one per parallel task), on stderr.
+pub use indicatif::MultiProgress;
+
+/// A bar of [`progress`]'s style added to `multi`.
+pub fn progress_in(multi: &MultiProgress, len: u64, message: &str) -> ProgressBar {
+    multi.add(progress(len, message))
+}

@@ -25,12 +25,17 @@
 //!
 //! Module map: [`params`] (hyperparameters, jitter, layout), [`kernel`] (the RBF kernel),
 //! [`likelihood`], [`dynamics`], [`connectivity`], [`objective`] (their sum), [`predict`]
-//! (posterior mean, its Jacobian and variance).
+//! (posterior mean, its Jacobian and variance), [`fit`] (initialisation and the MAP fit),
+//! [`latent`] (latent density, best latent point for an output), [`model`] (latent
+//! point → PCA coordinates → rig controls).
 
 pub mod connectivity;
 pub mod dynamics;
+pub mod fit;
 pub mod kernel;
+pub mod latent;
 pub mod likelihood;
+pub mod model;
 pub mod objective;
 pub mod params;
 pub mod predict;
@@ -40,6 +45,9 @@ pub(crate) mod testutil;
 
 pub use connectivity::{ConnectivityEval, ConnectivityParams, ConnectivityPrior};
 pub use dynamics::{DynamicsParams, DynamicsPrior};
+pub use fit::{fit, Fit, FitConfig, FitData};
+pub use latent::{best_latent, LatentDensity, ProjectOptions, Projection};
+pub use model::{LatentModel, RigMap};
 pub use likelihood::{Likelihood, LikelihoodConfig, LikelihoodEval};
 pub use objective::{EvalInfo, Objective};
 pub use params::{Hyper, HyperGrad, Jitter, Layout};

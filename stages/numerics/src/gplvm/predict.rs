@@ -120,6 +120,32 @@ impl MeanPredictor {
     }
 }
 
+/// The lower Cholesky factor of $K = K^{rbf}(X) + \sigma_w^2 I$ under the jitter policy.
+fn factor_k(
+    x: &[f64],
+    n: usize,
+    q: usize,
+    hyper: &Hyper,
+    white: f64,
+    config: &LikelihoodConfig,
+) -> Result<(Mat<f64>, JitterUsed), GplvmError> {
+    let mut xc = Vec::new();
+    columns(x, n, q, &mut xc);
+    let mut krbf = Mat::<f64>::zeros(n, n);
+    rbf_lower(krbf.as_mut(), &xc, q, hyper, &mut vec![0.0; n]);
+    let mut chol = Mat::<f64>::zeros(n, n);
+    let fill = |mut l: faer::MatMut<'_, f64>| {
+        for j in 0..n {
+            for i in j..n {
+                l[(i, j)] = krbf[(i, j)] + if i == j { white } else { 0.0 };
+            }
+        }
+    };
+    let mut mem = MemBuffer::new(llt::factor::cholesky_in_place_scratch::<f64>(n, config.par, Default::default()));
+    let jitter = cholesky_with_jitter(chol.as_mut(), fill, &config.jitter, "K", config.par, MemStack::new(&mut mem))?;
+    Ok((chol, jitter))
+}
+
 /// A fitted model's full predictor: the mean map plus the Cholesky factor of $K$ for the
 /// variance. Dereferences to [`MeanPredictor`].
 #[derive(Debug, Clone)]
@@ -151,23 +177,8 @@ impl Predictor {
             return Err(GplvmError::Shape(format!("x has {} values, not N × q with N = {n}", x.len())));
         }
         let q = x.len() / n;
-        let floor = config.white_floor * hyper.rbf_variance;
-        let white = hyper.white_variance.max(floor);
-        let mut xc = Vec::new();
-        columns(x, n, q, &mut xc);
-        let mut krbf = Mat::<f64>::zeros(n, n);
-        rbf_lower(krbf.as_mut(), &xc, q, &hyper, &mut vec![0.0; n]);
-        let mut chol = Mat::<f64>::zeros(n, n);
-        let fill = |mut l: faer::MatMut<'_, f64>| {
-            for j in 0..n {
-                for i in j..n {
-                    l[(i, j)] = krbf[(i, j)] + if i == j { white } else { 0.0 };
-                }
-            }
-        };
-        let mut mem = MemBuffer::new(llt::factor::cholesky_in_place_scratch::<f64>(n, config.par, Default::default()));
-        let jitter =
-            cholesky_with_jitter(chol.as_mut(), fill, &config.jitter, "K", config.par, MemStack::new(&mut mem))?;
+        let white = hyper.white_variance.max(config.white_floor * hyper.rbf_variance);
+        let (chol, jitter) = factor_k(x, n, q, &hyper, white, config)?;
         let mut a = Mat::<f64>::from_fn(n, d, |i, j| y[i * d + j]);
         triangular_solve::solve_lower_triangular_in_place(chol.as_ref(), a.as_mut(), config.par);
         triangular_solve::solve_upper_triangular_in_place(chol.transpose(), a.as_mut(), config.par);
@@ -176,6 +187,17 @@ impl Predictor {
             return Err(GplvmError::NonFinite("K⁻¹Y"));
         }
         let mean = MeanPredictor::from_parts(x.to_vec(), kinv_y, q, d, hyper)?;
+        Ok(Self { mean, chol, jitter, white_used: white })
+    }
+
+    /// The full predictor of a stored mean map: refactors $K$ at its latents (with the
+    /// same jitter policy and white floor as the fit, so the same factor), keeping the
+    /// stored $K^{-1}Y$.
+    pub fn from_mean(mean: MeanPredictor, config: &LikelihoodConfig) -> Result<Self, GplvmError> {
+        let (n, q) = (mean.n(), mean.q());
+        let hyper = *mean.hyper();
+        let white = hyper.white_variance.max(config.white_floor * hyper.rbf_variance);
+        let (chol, jitter) = factor_k(&mean.x, n, q, &hyper, white, config)?;
         Ok(Self { mean, chol, jitter, white_used: white })
     }
 

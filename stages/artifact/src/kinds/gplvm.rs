@@ -1,0 +1,371 @@
+//! The gplvm stage's artifacts: latent points, models, optimisation traces, fit summaries.
+//!
+//! `gplvm_latents` — one row per training frame, in each model's point order:
+//!
+//! | column | type | meaning |
+//! |---|---|---|
+//! | `label` | Utf8 | the model |
+//! | `segment_id`, `clip`, `frame` | Int64, Utf8, Int64 | the frame |
+//! | `time` | Float64 | seconds from the segment's start (the dynamics prior's input) |
+//! | `x0`, `x1`, … | Float64 | latent coordinates |
+//!
+//! `gplvm_models` — what reconstruction needs, self-contained: per label one row per
+//! training point (`point` = 0, 1, …) with its latent `x0…` and its row of
+//! $A = K^{-1}(Y - \bar y)$ in `a0…` (null beyond the label's PCA dimension), and one row
+//! `point = −1` holding the output offset $\bar y$ in `a0…` (latents null). The columns
+//! `rbf_variance`, `lengthscale`, `white_variance` (optimised $\sigma_f^2, \ell, \sigma_w^2$)
+//! `white_variance_used` (after the floor) and `jitter` (added to the diagonal of $K$)
+//! repeat on every row of a label. The mean
+//! map is $\mu(x) = \bar y + A^\top k(x)$, $k_i(x) = \sigma_f^2e^{-\lVert x-x_i\rVert^2/(2\ell^2)}$.
+//!
+//! `gplvm_trace` — per label and SCG iteration: `label`, `iteration` (1, 2, …), `value`
+//! (objective $E$ at the current point), `grad_norm` ($\lVert\nabla E\rVert_2$), `beta`
+//! (SCG's scale), `accepted`.
+//!
+//! `gplvm_fits` — one row per label: see [`FitSummary`].
+
+use std::path::Path;
+
+use crate::error::Result;
+use crate::provenance::Provenance;
+use crate::table::{Columns, Kind, Table};
+
+/// Kind of the latents table.
+pub const GPLVM_LATENTS: Kind = Kind { name: "gplvm_latents", version: 1 };
+/// Kind of the models table.
+pub const GPLVM_MODELS: Kind = Kind { name: "gplvm_models", version: 1 };
+/// Kind of the trace table.
+pub const GPLVM_TRACE: Kind = Kind { name: "gplvm_trace", version: 1 };
+/// Kind of the fit summary table.
+pub const GPLVM_FITS: Kind = Kind { name: "gplvm_fits", version: 1 };
+
+/// Per-frame latent points of every model.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Latents {
+    /// Label per row.
+    pub label: Vec<String>,
+    /// Segment per row.
+    pub segment_id: Vec<i64>,
+    /// Clip per row.
+    pub clip: Vec<String>,
+    /// Frame per row.
+    pub frame: Vec<i64>,
+    /// Seconds from the segment's start.
+    pub time: Vec<f64>,
+    /// Latent point per row (all of length q).
+    pub x: Vec<Vec<f64>>,
+}
+
+/// Numbered columns `prefix0, prefix1, …` while they exist.
+fn numbered(t: &Table, prefix: &str) -> Vec<String> {
+    (0..).map(|k| format!("{prefix}{k}")).take_while(|n| t.has_column(n)).collect()
+}
+
+/// Writes the latents atomically.
+pub fn write_latents(path: &Path, l: &Latents, provenance: &Provenance) -> Result<()> {
+    let q = l.x.first().map_or(0, Vec::len);
+    let mut cols = Columns::new()
+        .str("label", &l.label)
+        .i64("segment_id", l.segment_id.clone())
+        .str("clip", &l.clip)
+        .i64("frame", l.frame.clone())
+        .f64("time", l.time.clone());
+    for k in 0..q {
+        cols = cols.f64(&format!("x{k}"), l.x.iter().map(|x| x[k]).collect());
+    }
+    crate::table::write(path, GPLVM_LATENTS, cols, provenance, &[])
+}
+
+/// Reads the latents.
+pub fn read_latents(path: &Path) -> Result<Latents> {
+    let t = Table::read(path, GPLVM_LATENTS)?;
+    let xs = numbered(&t, "x").iter().map(|n| t.f64(n)).collect::<Result<Vec<_>>>()?;
+    if xs.is_empty() {
+        return Err(t.invalid("no latent columns x0, x1, …"));
+    }
+    Ok(Latents {
+        label: t.strings("label")?,
+        segment_id: t.i64("segment_id")?.to_vec(),
+        clip: t.strings("clip")?,
+        frame: t.i64("frame")?.to_vec(),
+        time: t.f64("time")?.to_vec(),
+        x: (0..t.rows()).map(|r| xs.iter().map(|c| c[r]).collect()).collect(),
+    })
+}
+
+/// One label's model, as stored.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GplvmModel {
+    /// Label.
+    pub label: String,
+    /// Latent dimension q.
+    pub q: usize,
+    /// Output (PCA) dimension d.
+    pub d: usize,
+    /// $\sigma_f^2$.
+    pub rbf_variance: f64,
+    /// $\ell$.
+    pub lengthscale: f64,
+    /// $\sigma_w^2$ as optimised.
+    pub white_variance: f64,
+    /// $\sigma_w^2$ after the floor.
+    pub white_variance_used: f64,
+    /// Jitter added to the diagonal of $K$ beyond $\sigma_w^2$.
+    pub jitter: f64,
+    /// Training latents, row-major `N × q`.
+    pub x: Vec<f64>,
+    /// $K^{-1}(Y - \bar y)$, row-major `N × d`.
+    pub kinv_y: Vec<f64>,
+    /// $\bar y$ (length d).
+    pub offset: Vec<f64>,
+}
+
+impl GplvmModel {
+    /// Training points N.
+    pub fn n(&self) -> usize {
+        self.x.len() / self.q.max(1)
+    }
+}
+
+/// Writes the models atomically (all with the same q).
+pub fn write_models(path: &Path, models: &[GplvmModel], provenance: &Provenance) -> Result<()> {
+    let q = models.first().map_or(0, |m| m.q);
+    let dmax = models.iter().map(|m| m.d).max().unwrap_or(0);
+    let (mut label, mut point) = (Vec::new(), Vec::new());
+    let (mut s2, mut ell, mut w, mut wu, mut jit) = (vec![], vec![], vec![], vec![], vec![]);
+    let mut xs: Vec<Vec<Option<f64>>> = vec![Vec::new(); q];
+    let mut as_: Vec<Vec<Option<f64>>> = vec![Vec::new(); dmax];
+    for m in models {
+        for p in -1..m.n() as i64 {
+            label.push(m.label.as_str());
+            point.push(p);
+            s2.push(m.rbf_variance);
+            ell.push(m.lengthscale);
+            w.push(m.white_variance);
+            wu.push(m.white_variance_used);
+            jit.push(m.jitter);
+            let (xrow, arow): (Option<&[f64]>, &[f64]) = if p < 0 {
+                (None, &m.offset)
+            } else {
+                let i = p as usize;
+                (Some(&m.x[i * m.q..(i + 1) * m.q]), &m.kinv_y[i * m.d..(i + 1) * m.d])
+            };
+            xs.iter_mut().enumerate().for_each(|(k, c)| c.push(xrow.map(|r| r[k])));
+            as_.iter_mut().enumerate().for_each(|(k, c)| c.push(arow.get(k).copied()));
+        }
+    }
+    let mut cols = Columns::new()
+        .str("label", &label)
+        .i64("point", point)
+        .f64("rbf_variance", s2)
+        .f64("lengthscale", ell)
+        .f64("white_variance", w)
+        .f64("white_variance_used", wu)
+        .f64("jitter", jit);
+    for (k, c) in xs.into_iter().enumerate() {
+        cols = cols.f64_opt(&format!("x{k}"), c);
+    }
+    for (k, c) in as_.into_iter().enumerate() {
+        cols = cols.f64_opt(&format!("a{k}"), c);
+    }
+    crate::table::write(path, GPLVM_MODELS, cols, provenance, &[])
+}
+
+/// Reads the models, checking that each label starts with its offset row and numbers its
+/// points 0, 1, … without gaps.
+pub fn read_models(path: &Path) -> Result<Vec<GplvmModel>> {
+    let t = Table::read(path, GPLVM_MODELS)?;
+    let (label, point) = (t.str("label")?, t.i64("point")?);
+    let (s2, ell, w) = (t.f64("rbf_variance")?, t.f64("lengthscale")?, t.f64("white_variance")?);
+    let (wu, jit) = (t.f64("white_variance_used")?, t.f64("jitter")?);
+    let xs = numbered(&t, "x").iter().map(|n| t.f64_opt(n)).collect::<Result<Vec<_>>>()?;
+    let as_ = numbered(&t, "a").iter().map(|n| t.f64_opt(n)).collect::<Result<Vec<_>>>()?;
+    let mut models: Vec<GplvmModel> = Vec::new();
+    for r in 0..t.rows() {
+        let arow: Vec<f64> = as_.iter().map_while(|c| c[r]).collect();
+        if point[r] < 0 {
+            models.push(GplvmModel {
+                label: label[r].into(),
+                q: xs.len(),
+                d: arow.len(),
+                rbf_variance: s2[r],
+                lengthscale: ell[r],
+                white_variance: w[r],
+                white_variance_used: wu[r],
+                jitter: jit[r],
+                x: vec![],
+                kinv_y: vec![],
+                offset: arow,
+            });
+            continue;
+        }
+        let m = models
+            .last_mut()
+            .filter(|m| m.label == label[r] && m.n() as i64 == point[r])
+            .ok_or_else(|| t.invalid(format!("row {r}: point {} of `{}` out of order", point[r], label[r])))?;
+        let xrow: Vec<f64> = xs.iter().map_while(|c| c[r]).collect();
+        if xrow.len() != m.q || arow.len() != m.d {
+            return Err(t.invalid(format!(
+                "row {r}: {} latent and {} output values, expected {} and {} (label `{}`)",
+                xrow.len(),
+                arow.len(),
+                m.q,
+                m.d,
+                m.label
+            )));
+        }
+        m.x.extend(xrow);
+        m.kinv_y.extend(arow);
+    }
+    if let Some(m) = models.iter().find(|m| m.n() == 0) {
+        return Err(t.invalid(format!("label `{}` has no training points", m.label)));
+    }
+    Ok(models)
+}
+
+/// The optimisation traces of every label.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Trace {
+    /// Label per row.
+    pub label: Vec<String>,
+    /// Iteration, from 1.
+    pub iteration: Vec<i64>,
+    /// Objective at the current point.
+    pub value: Vec<f64>,
+    /// Gradient norm there.
+    pub grad_norm: Vec<f64>,
+    /// SCG's β after the iteration.
+    pub beta: Vec<f64>,
+    /// Whether the iteration's step was accepted.
+    pub accepted: Vec<bool>,
+}
+
+/// Writes the traces atomically.
+pub fn write_trace(path: &Path, t: &Trace, provenance: &Provenance) -> Result<()> {
+    let cols = Columns::new()
+        .str("label", &t.label)
+        .i64("iteration", t.iteration.clone())
+        .f64("value", t.value.clone())
+        .f64("grad_norm", t.grad_norm.clone())
+        .f64("beta", t.beta.clone())
+        .bool("accepted", t.accepted.clone());
+    crate::table::write(path, GPLVM_TRACE, cols, provenance, &[])
+}
+
+/// One label's fit summary (a row of `gplvm_fits`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitSummary {
+    /// Label.
+    pub label: String,
+    /// Training frames N.
+    pub frames: i64,
+    /// Output (PCA) dimension d.
+    pub d: i64,
+    /// Latent dimension q.
+    pub q: i64,
+    /// SCG iterations.
+    pub iterations: i64,
+    /// Objective evaluations (value and gradient together).
+    pub evaluations: i64,
+    /// Objective $E$ at the start.
+    pub initial_objective: f64,
+    /// Objective $E$ at the optimum: the sum of the next three.
+    pub objective: f64,
+    /// $-\log p(Y\mid X)$ at the optimum.
+    pub neg_log_likelihood: f64,
+    /// $-\psi_D$ at the optimum (0 without the prior).
+    pub dynamics: f64,
+    /// $-\psi_C$ at the optimum (0 without the prior).
+    pub connectivity: f64,
+    /// $\lVert\nabla E\rVert_2$ at the optimum.
+    pub grad_norm: f64,
+    /// Jitter added to the diagonal of $K$.
+    pub jitter: f64,
+    /// Jitter the dynamics prior's blocks needed (0 without the prior).
+    pub dynamics_jitter: f64,
+    /// Whether a convergence test stopped the optimiser.
+    pub converged: bool,
+    /// Why it stopped: `tolerance`, `gradient`, `tiny-direction`, `max-iterations`.
+    pub stop_reason: String,
+    /// Wall-clock seconds of the fit.
+    pub seconds: f64,
+    /// Held-out check (None when off): RMS mesh error of the held-out frames through
+    /// their best latent point of a model fitted without them …
+    pub heldout_gplvm_mesh_rmse: Option<f64>,
+    /// … and through a PCA of the same training frames with q components.
+    pub heldout_pca_mesh_rmse: Option<f64>,
+    /// Held-out frames.
+    pub heldout_frames: i64,
+}
+
+/// Writes the fit summaries atomically.
+pub fn write_fits(path: &Path, rows: &[FitSummary], provenance: &Provenance) -> Result<()> {
+    let i = |f: fn(&FitSummary) -> i64| rows.iter().map(f).collect::<Vec<_>>();
+    let x = |f: fn(&FitSummary) -> f64| rows.iter().map(f).collect::<Vec<_>>();
+    let cols = Columns::new()
+        .str("label", &rows.iter().map(|r| r.label.as_str()).collect::<Vec<_>>())
+        .i64("frames", i(|r| r.frames))
+        .i64("d", i(|r| r.d))
+        .i64("q", i(|r| r.q))
+        .i64("iterations", i(|r| r.iterations))
+        .i64("evaluations", i(|r| r.evaluations))
+        .f64("initial_objective", x(|r| r.initial_objective))
+        .f64("objective", x(|r| r.objective))
+        .f64("neg_log_likelihood", x(|r| r.neg_log_likelihood))
+        .f64("dynamics", x(|r| r.dynamics))
+        .f64("connectivity", x(|r| r.connectivity))
+        .f64("grad_norm", x(|r| r.grad_norm))
+        .f64("jitter", x(|r| r.jitter))
+        .f64("dynamics_jitter", x(|r| r.dynamics_jitter))
+        .bool("converged", rows.iter().map(|r| r.converged).collect())
+        .str("stop_reason", &rows.iter().map(|r| r.stop_reason.as_str()).collect::<Vec<_>>())
+        .f64("seconds", x(|r| r.seconds))
+        .f64_opt("heldout_gplvm_mesh_rmse", rows.iter().map(|r| r.heldout_gplvm_mesh_rmse).collect())
+        .f64_opt("heldout_pca_mesh_rmse", rows.iter().map(|r| r.heldout_pca_mesh_rmse).collect())
+        .i64("heldout_frames", i(|r| r.heldout_frames));
+    crate::table::write(path, GPLVM_FITS, cols, provenance, &[])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn prov() -> Provenance {
+        Provenance::new("test", "0", serde_json::json!({}))
+    }
+
+    /// Models of different d and N, and latents, come back as written; a model table whose
+    /// points skip a number is refused naming the row.
+    #[test]
+    fn models_and_latents_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let m = |label: &str, n: usize, d: usize| GplvmModel {
+            label: label.into(),
+            q: 2,
+            d,
+            rbf_variance: 1.5,
+            lengthscale: 0.7,
+            white_variance: 1e-3,
+            white_variance_used: 1e-3,
+            jitter: 1e-8,
+            x: (0..n * 2).map(|i| i as f64 * 0.1).collect(),
+            kinv_y: (0..n * d).map(|i| i as f64 - 3.0).collect(),
+            offset: (0..d).map(|i| i as f64 * 2.0).collect(),
+        };
+        let models = vec![m("a", 3, 4), m("b", 2, 1)];
+        let path = dir.path().join("m.parquet");
+        write_models(&path, &models, &prov()).unwrap();
+        assert_eq!(read_models(&path).unwrap(), models);
+        let latents = Latents {
+            label: vec!["a".into(), "b".into()],
+            segment_id: vec![0, 3],
+            clip: vec!["c".into(), "d".into()],
+            frame: vec![5, 6],
+            time: vec![0.0, 0.25],
+            x: vec![vec![1.0, 2.0], vec![3.0, 4.0]],
+        };
+        let path = dir.path().join("l.parquet");
+        write_latents(&path, &latents, &prov()).unwrap();
+        assert_eq!(read_latents(&path).unwrap(), latents);
+    }
+}

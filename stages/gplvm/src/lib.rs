@@ -1,0 +1,420 @@
+//! The gplvm stage (Bailey et al. 2016 §4.3): per label, a GPLVM mapping a $q$-dimensional
+//! latent space to the label's scaled-PCA coordinates, with the dynamics prior (a GP over
+//! each segment's frame times, fixed hyperparameters) and the connectivity prior, fitted
+//! by MAP with SCG from the whitened first $q$ PCA coordinates. Labels are fitted in
+//! parallel (one rayon task and one progress bar per label; each fit is sequential).
+//!
+//! Optionally (`--heldout-every K`), a held-out check per label: every K-th frame is left
+//! out, a second model is fitted on the rest, and each held-out frame is reconstructed
+//! through its best latent point; the RMS mesh error is compared with a $q$-component
+//! PCA of the same training frames.
+
+mod heldout;
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Parser;
+use rayon::prelude::*;
+use reprise_artifact::frames::LabeledFrames;
+use reprise_artifact::gplvm::{self, FitSummary, GplvmModel, Latents, Trace};
+
+use reprise_artifact::pca::{self, SCALED};
+use reprise_numerics::gplvm::{
+    ConnectivityParams, DynamicsParams, Fit, FitConfig, FitData, Jitter, LikelihoodConfig,
+};
+use reprise_numerics::scg::{ScgOptions, StopReason};
+use reprise_stagekit::{StageError, StageResult};
+use serde::Serialize;
+
+/// `reprise-gplvm`: one GPLVM per label.
+#[derive(Debug, Clone, Parser, Serialize)]
+#[command(name = "reprise-gplvm", version, about)]
+pub struct Args {
+    /// Input: per-frame PCA coordinates (the `scaled` variant is modelled).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub coords: PathBuf,
+    /// Input: the labeled frames (frame rate; the held-out check's original poses).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub labeled_frames: PathBuf,
+    /// Input (held-out check only): the PCA models.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub pca_models: Option<PathBuf>,
+    /// Input (held-out check only): the scales.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub scales: Option<PathBuf>,
+    /// Input (held-out check only): the controls table, naming the rig.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub controls: Option<PathBuf>,
+    /// Output: latent points per frame.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub latents: PathBuf,
+    /// Output: the models (hyperparameters, latents, K⁻¹Y, offsets).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub models: PathBuf,
+    /// Output: the optimisation trace.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub trace: PathBuf,
+    /// Output: one summary row per label.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub fits: PathBuf,
+
+    /// Latent dimension q (the paper: 3).
+    #[arg(long, default_value_t = 3)]
+    pub q: usize,
+    /// SCG iteration cap per label.
+    #[arg(long, default_value_t = 1000)]
+    pub max_iters: usize,
+    /// SCG tolerance on the largest parameter change of an accepted step (Netlab options(2)).
+    #[arg(long, default_value_t = 1e-4)]
+    pub xtol: f64,
+    /// SCG tolerance on the objective change of an accepted step (Netlab options(3));
+    /// Netlab stops when both the x and f tests pass.
+    #[arg(long, default_value_t = 1e-4)]
+    pub ftol: f64,
+    /// Initial white variance relative to the RBF variance (which starts at var(Y)).
+    #[arg(long, default_value_t = 0.05)]
+    pub init_white_ratio: f64,
+    /// Floor on σ_w² relative to σ_f².
+    #[arg(long, default_value_t = 1e-6)]
+    pub white_floor: f64,
+    /// Jitter always added to the diagonal of K (GPy: 1e-8).
+    #[arg(long, default_value_t = 1e-8)]
+    pub jitter: f64,
+    /// Escalations of the jitter (×10 from 1e-6 × mean diagonal) before a Cholesky failure is an error.
+    #[arg(long, default_value_t = 5)]
+    pub jitter_retries: u32,
+
+    /// Use the dynamics prior.
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    pub dynamics: bool,
+    /// Dynamics prior: RBF variance σ_t².
+    #[arg(long, default_value_t = 1.0)]
+    pub dynamics_variance: f64,
+    /// Dynamics prior: time length scale ℓ_t, seconds.
+    #[arg(long, default_value_t = 0.2)]
+    pub dynamics_lengthscale: f64,
+    /// Dynamics prior: white variance σ_tw².
+    #[arg(long, default_value_t = 1e-4)]
+    pub dynamics_white: f64,
+    /// Dynamics prior: weight on its log density.
+    #[arg(long, default_value_t = 1.0)]
+    pub dynamics_weight: f64,
+
+    /// Use the connectivity prior.
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    pub connectivity: bool,
+    /// Connectivity prior: exponent p of the weights ‖xᵢ − xⱼ‖⁻ᵖ.
+    #[arg(long, default_value_t = 4.0)]
+    pub connectivity_power: f64,
+    /// Connectivity prior: diffusion time β (× N/400 with --connectivity-scale-with-n).
+    #[arg(long, default_value_t = 1.0)]
+    pub connectivity_beta: f64,
+    /// Connectivity prior: weight w_c (× (500/N)² with --connectivity-scale-with-n).
+    #[arg(long, default_value_t = 1e-3)]
+    pub connectivity_weight: f64,
+    /// Scale β and w_c with N as GPCM does.
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    pub connectivity_scale_with_n: bool,
+
+    /// Held-out check: leave out every K-th frame of each label (0: off).
+    #[arg(long, default_value_t = 0)]
+    pub heldout_every: usize,
+    /// Worker threads for the labels (0: one per core).
+    #[arg(long, default_value_t = 0)]
+    #[serde(skip)]
+    pub threads: usize,
+    /// Only validate the flags and exit.
+    #[arg(long)]
+    #[serde(skip)]
+    pub check: bool,
+}
+
+impl Args {
+    /// The fit configuration for frame times in seconds.
+    pub fn fit_config(&self) -> FitConfig {
+        FitConfig {
+            q: self.q,
+            init_white_ratio: self.init_white_ratio,
+            likelihood: LikelihoodConfig {
+                jitter: Jitter { base: self.jitter, max_retries: self.jitter_retries, ..Jitter::GPY },
+                white_floor: self.white_floor,
+                ..Default::default()
+            },
+            dynamics: self.dynamics.then_some(DynamicsParams {
+                rbf_variance: self.dynamics_variance,
+                lengthscale: self.dynamics_lengthscale,
+                white_variance: self.dynamics_white,
+                weight: self.dynamics_weight,
+                ..Default::default()
+            }),
+            connectivity: self.connectivity.then_some(ConnectivityParams {
+                power: self.connectivity_power,
+                beta: self.connectivity_beta,
+                weight: self.connectivity_weight,
+                scale_beta_with_n: self.connectivity_scale_with_n,
+                scale_weight_with_n: self.connectivity_scale_with_n,
+                ..Default::default()
+            }),
+            scg: ScgOptions { max_iters: self.max_iters, xtol: self.xtol, ftol: self.ftol, ..Default::default() },
+        }
+    }
+
+    fn validate(&self) -> StageResult<()> {
+        let pos = |v: f64| v.is_finite() && v > 0.0;
+        let checks: [(bool, &str); 9] = [
+            (self.q >= 1, "--q must be at least 1"),
+            (self.max_iters >= 1, "--max-iters must be at least 1"),
+            (pos(self.xtol) && pos(self.ftol), "--xtol and --ftol must be positive"),
+            (pos(self.init_white_ratio), "--init-white-ratio must be positive"),
+            (self.white_floor.is_finite() && self.white_floor >= 0.0, "--white-floor must be >= 0"),
+            (self.jitter.is_finite() && self.jitter >= 0.0, "--jitter must be >= 0"),
+            (
+                pos(self.dynamics_variance) && pos(self.dynamics_lengthscale) && pos(self.dynamics_white),
+                "--dynamics-variance, --dynamics-lengthscale and --dynamics-white must be positive",
+            ),
+            (
+                pos(self.connectivity_power) && pos(self.connectivity_beta) && self.connectivity_weight >= 0.0,
+                "--connectivity-power and --connectivity-beta must be positive, --connectivity-weight >= 0",
+            ),
+            (self.heldout_every != 1, "--heldout-every 1 would leave nothing to train on; use 0 (off) or >= 2"),
+        ];
+        if let Some((_, msg)) = checks.iter().find(|(ok, _)| !ok) {
+            return Err(StageError::Config((*msg).into()));
+        }
+        if self.heldout_every >= 2 && (self.pca_models.is_none() || self.scales.is_none() || self.controls.is_none()) {
+            return Err(StageError::Config(
+                "--heldout-every needs --pca-models, --scales and --controls (to reconstruct poses and evaluate meshes)"
+                    .into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One label's training data, gathered from the PCA coordinates.
+#[derive(Debug, Clone)]
+pub(crate) struct LabelData {
+    pub(crate) label: String,
+    pub(crate) d: usize,
+    /// Row-major `N × d`.
+    pub(crate) y: Vec<f64>,
+    /// Seconds from the segment's first frame.
+    pub(crate) times: Vec<f64>,
+    pub(crate) segments: Vec<i64>,
+    pub(crate) clips: Vec<String>,
+    pub(crate) frames: Vec<i64>,
+}
+
+impl LabelData {
+    pub(crate) fn n(&self) -> usize {
+        self.frames.len()
+    }
+
+    /// The rows `keep` only.
+    pub(crate) fn subset(&self, keep: &[usize]) -> Self {
+        let d = self.d;
+        Self {
+            label: self.label.clone(),
+            d,
+            y: keep.iter().flat_map(|&i| self.y[i * d..(i + 1) * d].to_vec()).collect(),
+            times: keep.iter().map(|&i| self.times[i]).collect(),
+            segments: keep.iter().map(|&i| self.segments[i]).collect(),
+            clips: keep.iter().map(|&i| self.clips[i].clone()).collect(),
+            frames: keep.iter().map(|&i| self.frames[i]).collect(),
+        }
+    }
+
+    pub(crate) fn fit_data(&self) -> FitData<'_> {
+        FitData { y: &self.y, d: self.d, times: &self.times, segments: &self.segments }
+    }
+}
+
+/// Per label, in first-appearance order: the scaled coordinates, with frame times in
+/// seconds from each segment's first frame at `fps`.
+fn gather(coords: &pca::PcaCoords, fps: f64, path: &std::path::Path) -> StageResult<Vec<LabelData>> {
+    let mut out: Vec<LabelData> = Vec::new();
+    let mut seg_start: std::collections::HashMap<i64, i64> = std::collections::HashMap::new();
+    for r in (0..coords.label.len()).filter(|&r| coords.variant[r] == SCALED) {
+        let e = seg_start.entry(coords.segment_id[r]).or_insert(coords.frame[r]);
+        *e = (*e).min(coords.frame[r]);
+    }
+    for r in (0..coords.label.len()).filter(|&r| coords.variant[r] == SCALED) {
+        let label = &coords.label[r];
+        let i = match out.iter().position(|l| &l.label == label) {
+            Some(i) => i,
+            None => {
+                out.push(LabelData {
+                    label: label.clone(),
+                    d: coords.y[r].len(),
+                    y: vec![],
+                    times: vec![],
+                    segments: vec![],
+                    clips: vec![],
+                    frames: vec![],
+                });
+                out.len() - 1
+            }
+        };
+        let l = &mut out[i];
+        if coords.y[r].len() != l.d {
+            return Err(StageError::Input(format!(
+                "{}: row {r}: label `{label}` has {} coordinates here but {} on its first row",
+                path.display(),
+                coords.y[r].len(),
+                l.d
+            )));
+        }
+        l.y.extend_from_slice(&coords.y[r]);
+        l.times.push((coords.frame[r] - seg_start[&coords.segment_id[r]]) as f64 / fps);
+        l.segments.push(coords.segment_id[r]);
+        l.clips.push(coords.clip[r].clone());
+        l.frames.push(coords.frame[r]);
+    }
+    if out.is_empty() {
+        return Err(StageError::Input(format!("{}: no `scaled` coordinates to model", path.display())));
+    }
+    Ok(out)
+}
+
+/// Why SCG stopped, as written to `gplvm_fits`.
+fn stop_reason(r: StopReason) -> &'static str {
+    match r {
+        StopReason::Tolerance => "tolerance",
+        StopReason::Gradient => "gradient",
+        StopReason::TinyDirection => "tiny-direction",
+        StopReason::MaxIterations => "max-iterations",
+        StopReason::NonFiniteStart => "non-finite-start",
+    }
+}
+
+/// Fits one label, reporting evaluations to `bar`.
+pub(crate) fn fit_label(data: &LabelData, config: &FitConfig, bar: &reprise_stagekit::ProgressBar) -> StageResult<Fit> {
+    let fit = reprise_numerics::gplvm::fit(data.fit_data(), config, |_| bar.inc(1)).map_err(|e| {
+        StageError::Numerical(format!("label `{}` ({} frames, d = {}): {e}", data.label, data.n(), data.d))
+    })?;
+    if fit.scg.reason == StopReason::NonFiniteStart {
+        let why = fit.last.error.as_ref().map_or("non-finite value or gradient".to_string(), |e| e.to_string());
+        return Err(StageError::Numerical(format!("label `{}`: the objective at the start: {why}", data.label)));
+    }
+    Ok(fit)
+}
+
+/// Runs the stage (or only validates, with `--check`). Returns the per-label summaries.
+pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
+    args.validate()?;
+    if args.check {
+        return Ok(None);
+    }
+    let mut provenance = reprise_stagekit::provenance("gplvm", env!("CARGO_PKG_VERSION"), args)
+        .with_input("coords", &args.coords)?
+        .with_input("labeled_frames", &args.labeled_frames)?;
+    for (role, p) in [("pca_models", &args.pca_models), ("scales", &args.scales), ("controls", &args.controls)] {
+        if let Some(p) = p {
+            provenance = provenance.with_input(role, p)?;
+        }
+    }
+    let coords = pca::read_coords(&args.coords)?;
+    let labeled = LabeledFrames::read(&args.labeled_frames)?;
+    let mut labels = gather(&coords, labeled.frames.fps, &args.coords)?;
+    let config = args.fit_config();
+    let checker = (args.heldout_every >= 2).then(|| heldout::Checker::open(args, &labeled)).transpose()?;
+    // Largest first, so that two workers finish together.
+    labels.sort_by_key(|l| std::cmp::Reverse(l.n()));
+    let multi = reprise_stagekit::MultiProgress::new();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads)
+        .build()
+        .map_err(|e| StageError::Config(format!("thread pool: {e}")))?;
+    let evals_per_fit = 2 * config.scg.max_iters as u64 + 2;
+    let fits_per_label = if checker.is_some() { 2 } else { 1 };
+    let results: Vec<StageResult<(Fit, FitSummary)>> = pool.install(|| {
+        labels
+            .par_iter()
+            .map(|l| {
+                let bar = reprise_stagekit::progress_in(&multi, evals_per_fit * fits_per_label, &l.label);
+                let start = Instant::now();
+                let fit = fit_label(l, &config, &bar)?;
+                let seconds = start.elapsed().as_secs_f64();
+                let held = checker.as_ref().map(|c| c.check(l, &config, args.heldout_every, &bar)).transpose()?;
+                bar.finish_and_clear();
+                let summary = FitSummary {
+                    label: l.label.clone(),
+                    frames: l.n() as i64,
+                    d: l.d as i64,
+                    q: config.q as i64,
+                    iterations: fit.scg.iterations as i64,
+                    evaluations: fit.scg.evaluations as i64,
+                    initial_objective: fit.initial.value,
+                    objective: fit.last.value,
+                    neg_log_likelihood: fit.last.likelihood,
+                    dynamics: fit.last.dynamics,
+                    connectivity: fit.last.connectivity,
+                    grad_norm: fit.scg.grad_norm,
+                    jitter: fit.last.jitter.added,
+                    dynamics_jitter: fit.dynamics_jitter.map_or(0.0, |j| j.added),
+                    converged: fit.scg.converged,
+                    stop_reason: stop_reason(fit.scg.reason).into(),
+                    seconds,
+                    heldout_gplvm_mesh_rmse: held.as_ref().map(|h| h.gplvm_rmse),
+                    heldout_pca_mesh_rmse: held.as_ref().map(|h| h.pca_rmse),
+                    heldout_frames: held.as_ref().map_or(0, |h| h.frames as i64),
+                };
+                Ok((fit, summary))
+            })
+            .collect()
+    });
+    let results: Vec<(Fit, FitSummary)> = results.into_iter().collect::<StageResult<_>>()?;
+    // Outputs in the labels' original (first-appearance) order.
+    let mut order: Vec<usize> = (0..labels.len()).collect();
+    order.sort_by_key(|&i| coords.label.iter().position(|l| *l == labels[i].label));
+    let (mut latents, mut trace, mut models, mut summaries) = (Latents::default(), Trace::default(), vec![], vec![]);
+    for i in order {
+        let (l, (fit, summary)) = (&labels[i], &results[i]);
+        let q = config.q;
+        for r in 0..l.n() {
+            latents.label.push(l.label.clone());
+            latents.segment_id.push(l.segments[r]);
+            latents.clip.push(l.clips[r].clone());
+            latents.frame.push(l.frames[r]);
+            latents.time.push(l.times[r]);
+            latents.x.push(fit.x[r * q..(r + 1) * q].to_vec());
+        }
+        for (k, it) in fit.trace.iter().enumerate() {
+            trace.label.push(l.label.clone());
+            trace.iteration.push(k as i64 + 1);
+            trace.value.push(it.value);
+            trace.grad_norm.push(it.grad_norm);
+            trace.beta.push(it.beta);
+            trace.accepted.push(it.accepted);
+        }
+        models.push(GplvmModel {
+            label: l.label.clone(),
+            q,
+            d: l.d,
+            rbf_variance: fit.hyper.rbf_variance,
+            lengthscale: fit.hyper.lengthscale,
+            white_variance: fit.hyper.white_variance,
+            white_variance_used: fit.predictor.white_variance_used(),
+            jitter: fit.predictor.jitter_used().added,
+            x: fit.x.clone(),
+            kinv_y: fit.predictor.kinv_y().to_vec(),
+            offset: fit.offset.clone(),
+        });
+        summaries.push(summary.clone());
+    }
+    gplvm::write_latents(&args.latents, &latents, &provenance)?;
+    gplvm::write_models(&args.models, &models, &provenance)?;
+    gplvm::write_trace(&args.trace, &trace, &provenance)?;
+    gplvm::write_fits(&args.fits, &summaries, &provenance)?;
+    Ok(Some(summaries))
+}

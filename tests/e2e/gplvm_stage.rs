@@ -1,0 +1,76 @@
+//! The gplvm stage under the runner on the default corpus, with a short SCG budget: its
+//! four artifacts, models that reload into latent → rig-control maps reproducing the
+//! training frames' PCA reconstruction, the held-out check, and bad input.
+
+use reprise_artifact::gplvm;
+use reprise_artifact::pca;
+
+use crate::util::Project;
+
+/// The default pipeline with a short fit (the default budget is a benchmark's business).
+fn short(p: &Project, iters: usize) {
+    let toml = p.read("pipeline.toml").replace("max_iters = 300", &format!("max_iters = {iters}"));
+    assert!(toml.contains(&format!("max_iters = {iters}")), "the default pipeline sets max_iters");
+    p.write("pipeline.toml", &toml);
+}
+
+#[test]
+fn gplvm_fits_every_label_and_models_reconstruct() {
+    let p = Project::dragon_face();
+    short(&p, 40);
+    let out = p.reprise(&["run", "--to", "gplvm"]).ok();
+    assert!(out.contains("gplvm"), "{out}");
+    let a = |f: &str| p.path(&format!("artifacts/dragon-face/{f}.parquet"));
+    let latents = gplvm::read_latents(&a("gplvm_latents")).unwrap();
+    assert_eq!(latents.label.len(), 3745);
+    assert!(latents.x.iter().all(|x| x.len() == 3 && x.iter().all(|v| v.is_finite())));
+    let fits = reprise_artifact::Table::read(&a("gplvm_fits"), gplvm::GPLVM_FITS).unwrap();
+    assert_eq!(fits.rows(), 8);
+    let (init, obj) = (fits.f64("initial_objective").unwrap(), fits.f64("objective").unwrap());
+    assert!(init.iter().zip(obj).all(|(i, o)| o < i), "every fit lowers its objective");
+    let held_g = fits.f64_opt("heldout_gplvm_mesh_rmse").unwrap();
+    let held_p = fits.f64_opt("heldout_pca_mesh_rmse").unwrap();
+    assert!(held_g.iter().chain(&held_p).all(|v| v.is_some_and(|v| v.is_finite() && v > 0.0)));
+    let trace = reprise_artifact::Table::read(&a("gplvm_trace"), gplvm::GPLVM_TRACE).unwrap();
+    assert!(trace.rows() >= 8 && trace.rows() <= 8 * 40);
+
+    // The reloaded models: a training latent reconstructs its frame's PCA coordinates
+    // through the GP, and its controls through the PCA basis and the unscaling.
+    let models = reprise_model::load(&a("gplvm_models"), &a("pca_models"), &a("scales")).unwrap();
+    assert_eq!(models.models.len(), 8);
+    let coords = pca::read_coords(&a("pca_coords")).unwrap();
+    let m = models.require("roar").unwrap();
+    let i = latents.label.iter().position(|l| l == "roar").unwrap();
+    let row = (0..coords.label.len())
+        .find(|&r| coords.label[r] == "roar" && coords.variant[r] == "scaled" && coords.frame[r] == latents.frame[i]
+            && coords.segment_id[r] == latents.segment_id[i])
+        .unwrap();
+    let mut y = vec![0.0; m.d()];
+    m.pca_coords(&latents.x[i], &mut y);
+    let scale: f64 = coords.y[row].iter().map(|v| v * v).sum::<f64>().sqrt();
+    let err: f64 = y.iter().zip(&coords.y[row]).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+    assert!(err < 0.2 * scale, "training frame reconstructs: error {err} vs |y| {scale}");
+    assert_eq!(m.controls(), models.controls.len());
+    assert!(models.require("nope").unwrap_err().to_string().contains("roar"));
+
+    // Nothing changed: gplvm is cached.
+    assert!(!p.reprise(&["run", "--to", "gplvm"]).ok().contains("ran gplvm"));
+}
+
+#[test]
+fn gplvm_bad_input_is_a_clear_error() {
+    let p = Project::dragon_face();
+    short(&p, 2);
+    p.reprise(&["run", "--to", "pca"]).ok();
+    // A label too small for q: ask for a 12-dimensional latent space from 5–8 PCA components.
+    let toml = p.read("pipeline.toml").replace("q = 3", "q = 12");
+    p.write("pipeline.toml", &toml);
+    let err = p.reprise(&["run"]).fails(4);
+    assert!(err.contains("label `") && err.contains("fewer than the latent dimension 12"), "{err}");
+    assert!(!p.path("artifacts/dragon-face/gplvm_models.parquet").exists(), "nothing half-written");
+    // A bad parameter fails the --check before anything runs.
+    let toml = p.read("pipeline.toml").replace("q = 12", "q = 3").replace("heldout_every = 10", "heldout_every = 1");
+    p.write("pipeline.toml", &toml);
+    let err = p.reprise(&["run"]).fails(2);
+    assert!(err.contains("--heldout-every"), "{err}");
+}
