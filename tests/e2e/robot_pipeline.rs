@@ -1,4 +1,4 @@
-//! The RobotExpressive pipeline (`datasets/robot-expressive/`) end to end through pca,
+//! The RobotExpressive pipeline (`datasets/robot-expressive/`) end to end through gplvm,
 //! on the real glTF character read in place from `../shared`.
 
 use reprise_artifact::controls::{Controls, RigRef};
@@ -8,15 +8,16 @@ use reprise_artifact::segments;
 use crate::util::{repo, shared_dataset, Project};
 
 #[test]
-fn robot_expressive_through_pca() {
-    let Some(glb) = shared_dataset("robot_expressive_through_pca", "robot_expressive/RobotExpressive.glb") else {
+fn robot_expressive_through_gplvm() {
+    let Some(glb) = shared_dataset("robot_expressive_through_gplvm", "robot_expressive/RobotExpressive.glb") else {
         return;
     };
     let p = Project::empty();
     let toml = std::fs::read_to_string(repo().join("datasets/robot-expressive/pipeline.toml"))
         .unwrap()
         .replace("../../../shared/datasets/robot_expressive/RobotExpressive.glb", &glb.display().to_string())
-        .replace("../../artifacts", "artifacts");
+        .replace("../../artifacts", "artifacts")
+        .replace("max_iters = 300", "max_iters = 20");
     p.write("pipeline.toml", &toml);
     p.write("labels.toml", &std::fs::read_to_string(repo().join("datasets/robot-expressive/labels.toml")).unwrap());
     p.reprise(&["run"]).ok();
@@ -29,6 +30,13 @@ fn robot_expressive_through_pca() {
     let (_, models) = pca::read_models(&p.path("artifacts/robot-expressive/pca_models.parquet")).unwrap();
     assert_eq!(models.len(), 7);
     assert!(models.iter().all(|m| m.d() >= 3));
+    let gplvm = reprise_model::load(
+        &p.path("artifacts/robot-expressive/gplvm_models.parquet"),
+        &p.path("artifacts/robot-expressive/pca_models.parquet"),
+        &p.path("artifacts/robot-expressive/scales.parquet"),
+    )
+    .unwrap();
+    assert_eq!(gplvm.models.len(), 7);
     // The character file is the rig: a file whose content differs from what ingest read
     // is refused, not silently evaluated.
     let RigRef::Gltf { path, .. } = &controls.rig else { unreachable!() };

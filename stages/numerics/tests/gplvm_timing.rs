@@ -1,10 +1,13 @@
 //! Timings of the GPLVM objective (a benchmark, not a timed test): run with
+//! `bench/gplvm.sh`, which also times GPy in the same run, or alone with
 //! `cargo test --release -p reprise-numerics --test gplvm_timing -- --ignored --nocapture`.
 //!
-//! For N = 200, 400, 800 (D = 40, q = 3), single thread unless stated: the objective and
+//! For N = 200, 400, 800, 1600 (D = 40, q = 3), single thread unless stated: the objective and
 //! gradient plain (likelihood only) and with both priors; each prior alone; and the
 //! "O(N³) floor" — a faer Cholesky plus the SPD inverse from it, which any exact gradient
-//! needs (GPy's reference measures dpotrf + dpotri the same way).
+//! needs (GPy's reference measures dpotrf + dpotri the same way). With
+//! `REPRISE_GPY_TIMING` naming the JSON of `gplvm_ref.py --mode timing` (one thread), the
+//! table adds GPy's time and the ratios GPy / reprise and reprise / floor at each N.
 
 use std::time::Instant;
 
@@ -51,18 +54,43 @@ fn objective(n: usize, y: &[f64], priors: bool, par: Par) -> Objective {
     Objective::new(lik, Some(dp), Some(cp)).unwrap()
 }
 
+/// (N, GPy's median objective+gradient in ms at D = 40) from `$REPRISE_GPY_TIMING`.
+fn gpy_times() -> Vec<(usize, f64)> {
+    let Some(path) = std::env::var_os("REPRISE_GPY_TIMING") else {
+        println!("(GPy not timed: REPRISE_GPY_TIMING is not set; bench/gplvm.sh sets it)");
+        return vec![];
+    };
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        println!("(GPy not timed: {} unreadable)", std::path::Path::new(&path).display());
+        return vec![];
+    };
+    // Rows look like {"N": 800, "D": 40, "gpy_eval_median_s": 0.0787, ...}.
+    let num = |row: &str, key: &str| -> Option<f64> {
+        let at = row.find(&format!("\"{key}\": "))? + key.len() + 4;
+        let rest = &row[at..];
+        rest[..rest.find([',', '}', '\n'])?].trim().parse().ok()
+    };
+    text.split('{')
+        .filter_map(|row| Some((num(row, "N")? as usize, num(row, "D")?, num(row, "gpy_eval_median_s")?)))
+        .filter(|(_, d, _)| *d == 40.0)
+        .map(|(n, _, s)| (n, s * 1e3))
+        .collect()
+}
+
 #[test]
 #[ignore]
 fn timing_table() {
     let (d, q) = (40, 3);
     let hyper = Hyper { rbf_variance: 1.0, lengthscale: 1.0, white_variance: 0.1 };
+    let gpy = gpy_times();
     println!(
         "| N | objective+grad plain (ms) | with both priors (ms) | connectivity alone (ms) | dynamics alone (ms) \
-         | Cholesky + inverse (ms) | plain, Par::rayon(2) (ms) | both priors, Par::rayon(2) (ms) |"
+         | Cholesky + inverse (ms) | plain / floor | GPy plain (ms) | GPy / plain | plain, Par::rayon(2) (ms) \
+         | both priors, Par::rayon(2) (ms) |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
-    for n in [200, 400, 800] {
-        let reps = if n >= 800 { 7 } else { 11 };
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    for n in [200, 400, 800, 1600] {
+        let reps = if n >= 1600 { 3 } else if n >= 800 { 7 } else { 11 };
         let (x, y) = problem(n, d, q);
         let mut plain = objective(n, &y, false, Par::Seq);
         let p = plain.layout().pack(&x, &hyper);
@@ -118,8 +146,13 @@ fn timing_table() {
         let t_full2 = median_ms(reps, || {
             full2.evaluate(&p, &mut g);
         });
+        let (g, ratio) = match gpy.iter().find(|(gn, _)| *gn == n) {
+            Some((_, ms)) => (format!("{ms:.2}"), format!("{:.2}", ms / t_plain)),
+            None => ("-".into(), "-".into()),
+        };
         println!(
-            "| {n} | {t_plain:.2} | {t_full:.2} | {t_conn:.2} | {t_dyn:.3} | {t_floor:.2} | {t_par:.2} | {t_full2:.2} |"
+            "| {n} | {t_plain:.2} | {t_full:.2} | {t_conn:.2} | {t_dyn:.3} | {t_floor:.2} | {:.2} | {g} | {ratio} | {t_par:.2} | {t_full2:.2} |",
+            t_plain / t_floor
         );
     }
 }
