@@ -42,8 +42,12 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     let m = models.require("roar").unwrap();
     let i = latents.label.iter().position(|l| l == "roar").unwrap();
     let row = (0..coords.label.len())
-        .find(|&r| coords.label[r] == "roar" && coords.variant[r] == "scaled" && coords.frame[r] == latents.frame[i]
-            && coords.segment_id[r] == latents.segment_id[i])
+        .find(|&r| {
+            coords.label[r] == "roar"
+                && coords.variant[r] == "scaled"
+                && coords.frame[r] == latents.frame[i]
+                && coords.segment_id[r] == latents.segment_id[i]
+        })
         .unwrap();
     let mut y = vec![0.0; m.d()];
     m.pca_coords(&latents.x[i], &mut y);

@@ -57,7 +57,8 @@ impl<'a> Checker<'a> {
             )));
         }
         let rig = reprise_stagekit::rig::open_rig(&Controls::read(ct)?, &labeled.frames.controls)?;
-        let row_of = (0..labeled.frames.rows()).map(|r| ((labeled.segment_id[r], labeled.frames.frame[r]), r)).collect();
+        let row_of =
+            (0..labeled.frames.rows()).map(|r| ((labeled.segment_id[r], labeled.frames.frame[r]), r)).collect();
         Ok(Self { labeled, row_of, rig, pcas, scales: scales::read(sc)?, scales_path: sc.clone() })
     }
 
@@ -71,7 +72,13 @@ impl<'a> Checker<'a> {
         Ok(self.labeled.frames.row(*r).to_vec())
     }
 
-    pub(crate) fn check(&self, l: &LabelData, config: &FitConfig, every: usize, bar: &ProgressBar) -> StageResult<Heldout> {
+    pub(crate) fn check(
+        &self,
+        l: &LabelData,
+        config: &FitConfig,
+        every: usize,
+        bar: &ProgressBar,
+    ) -> StageResult<Heldout> {
         let (test, train): (Vec<usize>, Vec<usize>) = (0..l.n()).partition(|i| i % every == every / 2);
         let train_data = l.subset(&train);
         let fit = fit_label(&train_data, config, bar)?;

@@ -20,9 +20,7 @@ use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::gplvm::{self, FitSummary, GplvmModel, Latents, Trace};
 
 use reprise_artifact::pca::{self, SCALED};
-use reprise_numerics::gplvm::{
-    ConnectivityParams, DynamicsParams, Fit, FitConfig, FitData, Jitter, LikelihoodConfig,
-};
+use reprise_numerics::gplvm::{ConnectivityParams, DynamicsParams, Fit, FitConfig, FitData, Jitter, LikelihoodConfig};
 use reprise_numerics::scg::{ScgOptions, StopReason};
 use reprise_stagekit::{StageError, StageResult};
 use serde::Serialize;

@@ -56,8 +56,13 @@ pub fn rig_map(pca: &PcaModel, controls: &[String], scales: &[Scale], scales_pat
         .map_err(|e| StageError::Input(format!("label `{}`: {e}", pca.label)))
 }
 
-
-fn assemble(g: &GplvmModel, pca: &PcaModel, controls: &[String], scales: &[Scale], paths: [&Path; 3]) -> StageResult<LatentModel> {
+fn assemble(
+    g: &GplvmModel,
+    pca: &PcaModel,
+    controls: &[String],
+    scales: &[Scale],
+    paths: [&Path; 3],
+) -> StageResult<LatentModel> {
     if pca.d() != g.d {
         return Err(StageError::Input(format!(
             "label `{}`: {} has d = {} but {} has {} components; rerun gplvm",
@@ -69,13 +74,16 @@ fn assemble(g: &GplvmModel, pca: &PcaModel, controls: &[String], scales: &[Scale
         )));
     }
     // Refactor K exactly as the fit did: the white variance it used, the jitter it added.
-    let hyper = Hyper { rbf_variance: g.rbf_variance, lengthscale: g.lengthscale, white_variance: g.white_variance_used };
+    let hyper =
+        Hyper { rbf_variance: g.rbf_variance, lengthscale: g.lengthscale, white_variance: g.white_variance_used };
     let config = LikelihoodConfig {
         jitter: Jitter { base: g.jitter, max_retries: 0, ..Jitter::GPY },
         white_floor: 0.0,
         ..Default::default()
     };
-    let bad = |e: reprise_numerics::gplvm::GplvmError| StageError::Input(format!("{}: label `{}`: {e}", paths[0].display(), g.label));
+    let bad = |e: reprise_numerics::gplvm::GplvmError| {
+        StageError::Input(format!("{}: label `{}`: {e}", paths[0].display(), g.label))
+    };
     let mean = MeanPredictor::from_parts(g.x.clone(), g.kinv_y.clone(), g.q, g.d, hyper).map_err(bad)?;
     let predictor = Predictor::from_mean(mean, &config).map_err(bad)?;
     let map = rig_map(pca, controls, scales, paths[2])?;

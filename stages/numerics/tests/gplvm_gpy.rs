@@ -226,14 +226,18 @@ fn scg_fit_reaches_gpy_objective_and_recovers_the_curve() {
             let times: Vec<f64> = (0..N).map(|i| (i % 200) as f64).collect();
             let dp = DynamicsParams { lengthscale: 5.0, ..Default::default() };
             let cp = ConnectivityParams { weight: 1e-3, ..Default::default() };
-            (Some(DynamicsPrior::new(&times, &r.segment, Q, dp).unwrap()), Some(ConnectivityPrior::new(N, Q, cp).unwrap()))
+            (
+                Some(DynamicsPrior::new(&times, &r.segment, Q, dp).unwrap()),
+                Some(ConnectivityPrior::new(N, Q, cp).unwrap()),
+            )
         } else {
             (None, None)
         };
         let mut obj = Objective::new(lik, dynamics, connectivity).unwrap();
         let p0 = obj.layout().pack(&r.x, &hyper);
         // The plain fit runs to a tight optimum; the prior fit is only reported.
-        let opts = ScgOptions { max_iters: if priors { 200 } else { 4000 }, xtol: 1e-6, ftol: 1e-7, ..Default::default() };
+        let opts =
+            ScgOptions { max_iters: if priors { 200 } else { 4000 }, xtol: 1e-6, ftol: 1e-7, ..Default::default() };
         let start = std::time::Instant::now();
         let res = scg(|p, g| obj.evaluate(p, g), &p0, &opts);
         let secs = start.elapsed().as_secs_f64();

@@ -90,7 +90,13 @@ fn timing_table() {
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for n in [200, 400, 800, 1600] {
-        let reps = if n >= 1600 { 3 } else if n >= 800 { 7 } else { 11 };
+        let reps = if n >= 1600 {
+            3
+        } else if n >= 800 {
+            7
+        } else {
+            11
+        };
         let (x, y) = problem(n, d, q);
         let mut plain = objective(n, &y, false, Par::Seq);
         let p = plain.layout().pack(&x, &hyper);

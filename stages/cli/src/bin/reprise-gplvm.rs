@@ -16,8 +16,15 @@ fn main() {
                 };
                 eprintln!(
                     "{:<12} {:>6} {:>3} {:>6} {:>14.3} {:>12.3} {:>9.2e} {:>10} {:>8.1}  {held}",
-                    f.label, f.frames, f.d, f.iterations, f.objective, f.neg_log_likelihood, f.grad_norm,
-                    f.stop_reason, f.seconds
+                    f.label,
+                    f.frames,
+                    f.d,
+                    f.iterations,
+                    f.objective,
+                    f.neg_log_likelihood,
+                    f.grad_norm,
+                    f.stop_reason,
+                    f.seconds
                 );
             }
         }

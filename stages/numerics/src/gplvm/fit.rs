@@ -223,7 +223,10 @@ mod tests {
     /// an error naming the rank problem.
     #[test]
     fn initial_latents_are_whitened_pca_columns() {
-        let y = vec![1.0, 10.0, 5.0, -1.0, -10.0, 5.0, 3.0, 0.0, 5.0, -3.0, 0.0, 5.0].iter().map(|v| v + 1.0).collect::<Vec<f64>>();
+        let y = [1.0, 10.0, 5.0, -1.0, -10.0, 5.0, 3.0, 0.0, 5.0, -3.0, 0.0, 5.0f64]
+            .iter()
+            .map(|v| v + 1.0)
+            .collect::<Vec<f64>>();
         let x = initial_latents(&y, 3, 2).unwrap();
         for k in 0..2 {
             let var: f64 = (0..4).map(|i| x[i * 2 + k].powi(2)).sum::<f64>() / 4.0;
@@ -260,7 +263,13 @@ mod tests {
                 sq0 += (f.offset[j] - y[i * d + j]).powi(2);
             }
         }
-        assert!(sq < 0.1 * sq0, "training reconstruction {sq} vs variance {sq0}; {:?} {:?} {:?}", f.hyper, f.scg, f.last);
+        assert!(
+            sq < 0.1 * sq0,
+            "training reconstruction {sq} vs variance {sq0}; {:?} {:?} {:?}",
+            f.hyper,
+            f.scg,
+            f.last
+        );
     }
 
     /// Bad input: too few frames, NaN, fewer columns than q, a one-frame segment (a

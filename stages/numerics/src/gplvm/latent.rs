@@ -52,7 +52,7 @@ impl LatentDensity {
         let norm = (2.0 * std::f64::consts::PI * h * h).powf(-(q as f64) / 2.0) / n as f64;
         let mut me = Self { q, x, bandwidth: h, norm, reference: 1.0 };
         let mut g = vec![0.0; q];
-        let total: f64 = (0..n).map(|i| me.density_grad(&me.x[i * q..(i + 1) * q].to_vec(), &mut g)).sum();
+        let total: f64 = (0..n).map(|i| me.density_grad(&me.x[i * q..(i + 1) * q], &mut g)).sum();
         me.reference = total / n as f64;
         me
     }
@@ -107,7 +107,12 @@ pub struct ProjectOptions {
 
 impl Default for ProjectOptions {
     fn default() -> Self {
-        Self { nearest: 3, random: 2, seed: 0, scg: ScgOptions { max_iters: 100, xtol: 1e-6, ftol: 1e-10, ..Default::default() } }
+        Self {
+            nearest: 3,
+            random: 2,
+            seed: 0,
+            scg: ScgOptions { max_iters: 100, xtol: 1e-6, ftol: 1e-10, ..Default::default() },
+        }
     }
 }
 
@@ -135,7 +140,8 @@ pub fn best_latent(predictor: &MeanPredictor, y: &[f64], train_y: &[f64], opts: 
     if k > 0 && k < n {
         order.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
     }
-    let mut starts: Vec<Vec<f64>> = order[..k].iter().map(|&(_, i)| predictor.x()[i * q..(i + 1) * q].to_vec()).collect();
+    let mut starts: Vec<Vec<f64>> =
+        order[..k].iter().map(|&(_, i)| predictor.x()[i * q..(i + 1) * q].to_vec()).collect();
     let (mut lo, mut hi) = (vec![f64::INFINITY; q], vec![f64::NEG_INFINITY; q]);
     for xi in predictor.x().chunks_exact(q) {
         for c in 0..q {
