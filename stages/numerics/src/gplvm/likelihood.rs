@@ -26,7 +26,7 @@ use faer::linalg::triangular_solve;
 use faer::reborrow::ReborrowMut;
 use faer::{Accum, Mat, Par};
 
-use super::kernel::{columns, pair_grad_pass, rbf_lower, sq_dists_below};
+use super::kernel::{columns, pair_grad_pass, rbf_lower, sq_dists_below, vectorised};
 use super::params::{cholesky_with_jitter, JitterUsed, Scratch};
 use super::{GplvmError, Hyper, HyperGrad, Jitter};
 
@@ -222,22 +222,17 @@ impl Likelihood {
             par,
         );
         let half_d = 0.5 * d as f64;
-        let (mut sum_b, mut sum_bd, mut trace_g) = (0.0, 0.0, 0.0);
         self.gx.fill(0.0);
-        for j in 0..n {
-            sq_dists_below(&self.xc, n, q, j, &mut self.dist);
-            let g = self.kinv.col_as_slice(j);
-            let k = self.krbf.col_as_slice(j);
-            let gjj = half_d * g[j];
-            trace_g += gjj;
-            sum_b += gjj * k[j];
-            let (sb, sbd) =
-                b_column(&mut self.bcol[j + 1..n], &g[j + 1..n], &k[j + 1..n], &self.dist[j + 1..n], half_d);
-            sum_b += 2.0 * sb;
-            sum_bd += 2.0 * sbd;
-            pair_grad_pass(&self.xc, &mut self.gx, n, q, j, &self.bcol);
-        }
-        let ell2 = hyper.lengthscale * hyper.lengthscale;
+        let (trace_g, sum_b, sum_bd) = vectorised(GradPass {
+            xc: &self.xc,
+            gx: &mut self.gx,
+            dist: &mut self.dist,
+            bcol: &mut self.bcol,
+            g: self.kinv.as_ref(),
+            krbf: self.krbf.as_ref(),
+            q,
+            half_d,
+        });        let ell2 = hyper.lengthscale * hyper.lengthscale;
         let scale = -2.0 / ell2;
         for i in 0..n {
             for kk in 0..q {
@@ -260,9 +255,47 @@ impl Likelihood {
     }
 }
 
+/// The fused gradient pass over the lower triangle: per column $j$, the distances,
+/// $B_{ij} = \tfrac D2 G'_{ij}K^{rbf}_{ij}$ and the pairwise latent-gradient update; returns
+/// $(\operatorname{tr}G, \sum_{ij}B_{ij}, \sum_{ij}B_{ij}D_{ij})$. A [`pulp::WithSimd`] so that
+/// it is compiled per ISA.
+struct GradPass<'a> {
+    xc: &'a [f64],
+    gx: &'a mut [f64],
+    dist: &'a mut [f64],
+    bcol: &'a mut [f64],
+    g: faer::MatRef<'a, f64>,
+    krbf: faer::MatRef<'a, f64>,
+    q: usize,
+    half_d: f64,
+}
+
+impl pulp::WithSimd for GradPass<'_> {
+    type Output = (f64, f64, f64);
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> (f64, f64, f64) {
+        let Self { xc, gx, dist, bcol, g, krbf, q, half_d } = self;
+        let n = g.nrows();
+        let (mut trace_g, mut sum_b, mut sum_bd) = (0.0, 0.0, 0.0);
+        for j in 0..n {
+            sq_dists_below(xc, n, q, j, dist);
+            let gc = g.col(j).try_as_col_major().expect("column-major").as_slice();
+            let k = krbf.col(j).try_as_col_major().expect("column-major").as_slice();
+            let gjj = half_d * gc[j];
+            trace_g += gjj;
+            sum_b += gjj * k[j];
+            let (sb, sbd) = b_column(&mut bcol[j + 1..n], &gc[j + 1..n], &k[j + 1..n], &dist[j + 1..n], half_d);
+            sum_b += 2.0 * sb;
+            sum_bd += 2.0 * sbd;
+            pair_grad_pass(xc, gx, n, q, j, bcol);
+        }
+        (trace_g, sum_b, sum_bd)
+    }
+}
+
 /// $b_i = h\,g_i k_i$ into `b`; returns $(\sum_i b_i, \sum_i b_i d_i)$ (four partial sums
 /// each, so the loop vectorises).
-#[inline]
+#[inline(always)]
 fn b_column(b: &mut [f64], g: &[f64], k: &[f64], d: &[f64], h: f64) -> (f64, f64) {
     let (mut sb, mut sbd) = ([0.0; 4], [0.0; 4]);
     let mut b4 = b.chunks_exact_mut(4);
