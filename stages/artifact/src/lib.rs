@@ -11,6 +11,7 @@
 //! | `scales` | [`scales`] | scale | pca, bridges, synthesize |
 //! | `pca_models`, `pca_coords`, `pca_errors` | [`pca`] | pca | gplvm, bridges, evaluate |
 //! | `gplvm_latents`, `gplvm_models`, `gplvm_trace`, `gplvm_fits` | [`gplvm`] | gplvm | bridges, synthesize, evaluate |
+//! | `bridges` | [`bridges`] | bridges | synthesize, evaluate |
 //!
 //! Every file carries provenance ([`provenance`]) in its Parquet key-value metadata and
 //! is written atomically ([`table::write_atomic`]).
@@ -20,6 +21,7 @@ pub mod error;
 pub mod provenance;
 pub mod table;
 mod kinds {
+    pub mod bridges;
     pub mod clips;
     pub mod controls;
     pub mod frames;
@@ -28,7 +30,7 @@ mod kinds {
     pub mod scales;
     pub mod segments;
 }
-pub use kinds::{clips, controls, frames, gplvm, pca, scales, segments};
+pub use kinds::{bridges, clips, controls, frames, gplvm, pca, scales, segments};
 
 pub use error::{ArtifactError, Result};
 pub use provenance::Provenance;

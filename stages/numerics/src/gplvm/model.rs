@@ -11,12 +11,18 @@
 
 use super::{GplvmError, LatentDensity, Predictor};
 
-/// The affine map $p = b + V^\top y$ from PCA coordinates to rig controls.
+/// The affine map $p = b + V^\top y$ from PCA coordinates to rig controls, and its
+/// left inverse, the projection of the paper's Eq. 13,
+/// $y = P p + o$ with $P_{kc} = u_{kc}w_c$ and $o_k = \sum_c u_{kc}(\bar p_c - w_c\bar p_c - \bar z_c)$
+/// (scale, centre, project), so that `project(apply(y)) = y`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RigMap {
     d: usize,
     base: Vec<f64>,
     basis: Vec<f64>,
+    analysis: Vec<f64>,
+    analysis_offset: Vec<f64>,
+    weight: Vec<f64>,
 }
 
 impl RigMap {
@@ -51,7 +57,28 @@ impl RigMap {
         }
         let basis =
             (0..d * c).map(|i| if weight[i % c] == 0.0 { 0.0 } else { directions[i] / weight[i % c] }).collect();
-        Ok(Self { d, base, basis })
+        let analysis: Vec<f64> = (0..d * c).map(|i| directions[i] * weight[i % c]).collect();
+        let analysis_offset = (0..d)
+            .map(|k| {
+                (0..c).map(|j| directions[k * c + j] * (mean_p[j] - weight[j] * mean_p[j] - mean_z[j])).sum()
+            })
+            .collect();
+        Ok(Self { d, base, basis, analysis, analysis_offset, weight: weight.to_vec() })
+    }
+
+    /// $y = Pp + o$ (the paper's Eq. 13) into `out` (length $d$) for controls `p`.
+    pub fn project(&self, p: &[f64], out: &mut [f64]) {
+        let c = self.base.len();
+        assert_eq!(p.len(), c, "p must have C values");
+        for (o, (row, off)) in out.iter_mut().zip(self.analysis.chunks_exact(c).zip(&self.analysis_offset)) {
+            *o = off + row.iter().zip(p).map(|(a, b)| a * b).sum::<f64>();
+        }
+    }
+
+    /// $\lVert W(p - p')\rVert_2$: the distance of two poses in this model's scaled control
+    /// space (mesh length; controls the model does not use have weight 0).
+    pub fn scaled_distance(&self, p: &[f64], p2: &[f64]) -> f64 {
+        self.weight.iter().zip(p.iter().zip(p2)).map(|(w, (a, b))| (w * (a - b)).powi(2)).sum::<f64>().sqrt()
     }
 
     /// Number of PCA coordinates $d$.
@@ -193,6 +220,17 @@ mod tests {
             assert!((p[j] - want).abs() < 1e-14, "control {j}");
         }
         assert!(RigMap::from_pca(&mean_z, &[0.0, 0.0, 1.0, 0.0, 0.0], &mean_p, &weight).is_err());
+        // Eq. 13 inverts the map, also when z̄ differs from p̄.
+        let mean_z2 = [1.5, -2.0, 0.5, 2.0, 0.3];
+        let map2 = RigMap::from_pca(&mean_z2, &dirs, &mean_p, &weight).unwrap();
+        map2.apply(&y, &mut p);
+        let mut back = [0.0; 2];
+        map2.project(&p, &mut back);
+        assert!((back[0] - y[0]).abs() < 1e-12 && (back[1] - y[1]).abs() < 1e-12, "{back:?}");
+        let mut p2 = p;
+        p2[0] += 1.0;
+        p2[2] += 5.0; // unused: no distance
+        assert!((map2.scaled_distance(&p, &p2) - 2.0).abs() < 1e-12);
 
         let (x, ys) = random_problem(n, d, q, 9);
         let hyper = Hyper { rbf_variance: 1.0, lengthscale: 0.9, white_variance: 0.01 };

@@ -1,0 +1,267 @@
+//! The bridges stage (Bailey et al. 2016 §5.2): for every ordered pair of label models
+//! M1 → M2 and every `stride`-th training latent $x_1$ of M1, reconstruct its pose
+//! $p = g_1(x_1)$, project it into M2's scaled PCA space ($\hat y = Pp + o$, Eq. 13), and
+//! find the M2 latent point $x_2 = \arg\min_x\lVert\hat y - y_2(x)\rVert^2$ (Eq. 15) by
+//! multi-start SCG from M2's training latents whose outputs are nearest $\hat y$ plus
+//! random starts. The candidates' distance is measured in M2's scaled control space,
+//! $\lVert W_2(p - g_2(x_2))\rVert$ (mesh length), and, through the rig, as the RMS vertex
+//! distance of the two poses. A pair keeps its candidates under a threshold: a quantile
+//! of its own rig distances (default: the best 2 %), or an absolute rig or mesh distance.
+
+use std::path::PathBuf;
+
+use clap::{Parser, ValueEnum};
+use rayon::prelude::*;
+use reprise_artifact::bridges::{self, Bridge};
+use reprise_artifact::controls::Controls;
+use reprise_model::Models;
+use reprise_numerics::gplvm::{best_latent, LatentModel, ProjectOptions};
+use reprise_numerics::scg::ScgOptions;
+use reprise_stagekit::rig::{mesh_rmse, meshes};
+use reprise_stagekit::{StageError, StageResult};
+use serde::Serialize;
+
+/// How a pair's candidates are kept.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Threshold {
+    /// The `--quantile` best of the pair's rig distances.
+    Quantile,
+    /// Rig distance at most `--max-distance`.
+    Rig,
+    /// Mesh distance at most `--max-distance` (needs a rig).
+    Mesh,
+}
+
+/// `reprise-bridges`: matching latent points between every ordered pair of label models.
+#[derive(Debug, Clone, Parser, Serialize)]
+#[command(name = "reprise-bridges", version, about)]
+pub struct Args {
+    /// Input: the GPLVM models.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub gplvm_models: PathBuf,
+    /// Input: the PCA models.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub pca_models: PathBuf,
+    /// Input: the scales.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub scales: PathBuf,
+    /// Input: the controls table (names the rig, for mesh distances).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub controls: Option<PathBuf>,
+    /// Output: the bridges.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub bridges: PathBuf,
+    /// Try every k-th training point of M1.
+    #[arg(long, default_value_t = 1)]
+    pub stride: usize,
+    /// Starts at M2's training latents nearest the target.
+    #[arg(long, default_value_t = 2)]
+    pub nearest_starts: usize,
+    /// Plus this many random starts in M2's latent bounding box.
+    #[arg(long, default_value_t = 1)]
+    pub random_starts: usize,
+    /// SCG iterations per start ("small steps").
+    #[arg(long, default_value_t = 40)]
+    pub max_iters: usize,
+    /// Which threshold keeps a candidate.
+    #[arg(long, value_enum, default_value_t = Threshold::Quantile)]
+    pub threshold: Threshold,
+    /// With `quantile`: the share of each pair's candidates kept (at least one).
+    #[arg(long, default_value_t = 0.02)]
+    pub quantile: f64,
+    /// With `rig` or `mesh`: the largest distance kept.
+    #[arg(long)]
+    pub max_distance: Option<f64>,
+    /// Seed of the random starts.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Only validate the flags and exit.
+    #[arg(long)]
+    #[serde(skip)]
+    pub check: bool,
+}
+
+impl Args {
+    fn validate(&self) -> StageResult<()> {
+        let cfg = |m: &str| Err(StageError::Config(m.into()));
+        if self.stride == 0 || self.max_iters == 0 || self.nearest_starts + self.random_starts == 0 {
+            return cfg("--stride and --max-iters must be at least 1, and there must be at least one start");
+        }
+        match self.threshold {
+            Threshold::Quantile if !(self.quantile > 0.0 && self.quantile <= 1.0) => cfg("--quantile must be in (0, 1]"),
+            Threshold::Rig | Threshold::Mesh if !self.max_distance.is_some_and(|d| d.is_finite() && d >= 0.0) => {
+                cfg("--threshold rig|mesh needs --max-distance >= 0")
+            }
+            Threshold::Mesh if self.controls.is_none() => cfg("--threshold mesh needs --controls (the rig)"),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Per ordered pair: candidates tried and bridges kept.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairCount {
+    /// M1.
+    pub from: String,
+    /// M2.
+    pub to: String,
+    /// Candidates tried.
+    pub candidates: usize,
+    /// Bridges kept.
+    pub kept: usize,
+    /// The kept bridges' smallest rig distance.
+    pub best: f64,
+}
+
+/// M2's training outputs $\mu(x_i)$ (centred), the starts' guide.
+fn training_outputs(m: &LatentModel) -> Vec<f64> {
+    let (q, d) = (m.q(), m.d());
+    let mut out = vec![0.0; m.predictor.n() * d];
+    for (xi, o) in m.predictor.x().chunks_exact(q).zip(out.chunks_exact_mut(d)) {
+        m.predictor.mean(xi, o);
+    }
+    out
+}
+
+/// One candidate of a pair.
+struct Candidate {
+    point: usize,
+    x1: Vec<f64>,
+    x2: Vec<f64>,
+    p1: Vec<f64>,
+    p2: Vec<f64>,
+    rig: f64,
+}
+
+fn candidates(m1: &LatentModel, m2: &LatentModel, train2: &[f64], args: &Args, seed: u64) -> Vec<Candidate> {
+    let (q1, d2) = (m1.q(), m2.d());
+    let opts = ProjectOptions {
+        nearest: args.nearest_starts,
+        random: args.random_starts,
+        seed,
+        scg: ScgOptions { max_iters: args.max_iters, xtol: 1e-6, ftol: 1e-10, ..Default::default() },
+    };
+    let (mut y1, mut y2) = (vec![0.0; m1.d()], vec![0.0; d2]);
+    (0..m1.predictor.n())
+        .step_by(args.stride)
+        .map(|i| {
+            let x1 = m1.predictor.x()[i * q1..(i + 1) * q1].to_vec();
+            let mut p1 = vec![0.0; m1.controls()];
+            m1.controls_into(&x1, &mut y1, &mut p1);
+            m2.map.project(&p1, &mut y2);
+            y2.iter_mut().zip(&m2.offset).for_each(|(y, o)| *y -= o);
+            let found = best_latent(&m2.predictor, &y2, train2, &opts);
+            let mut p2 = vec![0.0; m2.controls()];
+            m2.controls_into(&found.x, &mut vec![0.0; d2], &mut p2);
+            let rig = m2.map.scaled_distance(&p1, &p2);
+            Candidate { point: i, x1, x2: found.x, p1, p2, rig }
+        })
+        .collect()
+}
+
+/// Runs the stage (or only validates, with `--check`).
+pub fn run(args: &Args) -> StageResult<Option<Vec<PairCount>>> {
+    args.validate()?;
+    if args.check {
+        return Ok(None);
+    }
+    let mut provenance = reprise_stagekit::provenance("bridges", env!("CARGO_PKG_VERSION"), args)
+        .with_input("gplvm_models", &args.gplvm_models)?
+        .with_input("pca_models", &args.pca_models)?
+        .with_input("scales", &args.scales)?;
+    if let Some(c) = &args.controls {
+        provenance = provenance.with_input("controls", c)?;
+    }
+    let Models { controls, models } = reprise_model::load(&args.gplvm_models, &args.pca_models, &args.scales)?;
+    if models.len() < 2 {
+        return Err(StageError::Input(format!(
+            "{}: {} label model(s); bridges need at least two",
+            args.gplvm_models.display(),
+            models.len()
+        )));
+    }
+    let rig = args.controls.as_ref().map(|c| reprise_stagekit::rig::open_rig(&Controls::read(c)?, &controls)).transpose()?;
+    let train: Vec<Vec<f64>> = models.par_iter().map(training_outputs).collect();
+    let pairs: Vec<(usize, usize)> =
+        (0..models.len()).flat_map(|a| (0..models.len()).filter(move |&b| b != a).map(move |b| (a, b))).collect();
+    let bar = reprise_stagekit::progress(pairs.len() as u64, "bridges");
+    let per_pair: Vec<StageResult<(Vec<Bridge>, PairCount)>> = pairs
+        .par_iter()
+        .map(|&(a, b)| {
+            let (m1, m2) = (&models[a], &models[b]);
+            let mut cands = candidates(m1, m2, &train[b], args, args.seed ^ ((a * 1000 + b) as u64));
+            cands.sort_by(|x, y| x.rig.total_cmp(&y.rig));
+            let tried = cands.len();
+            let mesh_of = |c: &[Candidate]| -> StageResult<Option<Vec<f64>>> {
+                let Some(r) = rig.as_ref() else { return Ok(None) };
+                let (e1, e2) = (
+                    meshes(r, &c.iter().map(|c| c.p1.clone()).collect::<Vec<_>>())?,
+                    meshes(r, &c.iter().map(|c| c.p2.clone()).collect::<Vec<_>>())?,
+                );
+                let m = e1.len() / c.len().max(1);
+                Ok(Some((0..c.len()).map(|i| mesh_rmse(&e1[i * m..(i + 1) * m], &e2[i * m..(i + 1) * m])).collect()))
+            };
+            let (kept, mesh): (Vec<Candidate>, Option<Vec<f64>>) = match args.threshold {
+                Threshold::Quantile => {
+                    let k = ((args.quantile * tried as f64).round() as usize).clamp(1, tried);
+                    cands.truncate(k);
+                    let mesh = mesh_of(&cands)?;
+                    (cands, mesh)
+                }
+                Threshold::Rig => {
+                    let max = args.max_distance.unwrap_or(f64::INFINITY);
+                    cands.retain(|c| c.rig <= max);
+                    let mesh = mesh_of(&cands)?;
+                    (cands, mesh)
+                }
+                Threshold::Mesh => {
+                    let max = args.max_distance.unwrap_or(f64::INFINITY);
+                    let mesh = mesh_of(&cands)?.unwrap_or_default();
+                    let mut both: Vec<(Candidate, f64)> = cands.into_iter().zip(mesh).filter(|(_, m)| *m <= max).collect();
+                    both.sort_by(|x, y| x.1.total_cmp(&y.1));
+                    let (c, m): (Vec<_>, Vec<_>) = both.into_iter().unzip();
+                    (c, Some(m))
+                }
+            };
+            bar.inc(1);
+            let count = PairCount {
+                from: m1.label.clone(),
+                to: m2.label.clone(),
+                candidates: tried,
+                kept: kept.len(),
+                best: kept.iter().map(|c| c.rig).fold(f64::INFINITY, f64::min),
+            };
+            let rows = kept
+                .into_iter()
+                .enumerate()
+                .map(|(r, c)| Bridge {
+                    from: m1.label.clone(),
+                    to: m2.label.clone(),
+                    from_point: c.point as i64,
+                    x1: c.x1,
+                    x2: c.x2,
+                    rig_distance: c.rig,
+                    mesh_distance: mesh.as_ref().map(|m| m[r]),
+                    rank: r as i64 + 1,
+                })
+                .collect();
+            Ok((rows, count))
+        })
+        .collect();
+    bar.finish_and_clear();
+    let mut all = Vec::new();
+    let mut counts = Vec::new();
+    for r in per_pair {
+        let (rows, count) = r?;
+        all.extend(rows);
+        counts.push(count);
+    }
+    bridges::write(&args.bridges, &all, models[0].q(), &provenance)?;
+    Ok(Some(counts))
+}
