@@ -1,0 +1,570 @@
+//! The command engine (§5.3): a [`Script`] of MOVE / IDLE / TRANSITION / PLAY commands
+//! becomes a per-frame path with radii; the particle ([`crate::particle`]) follows it in
+//! the current model's latent space under the density force and the random force; each
+//! frame is reconstructed to rig controls, blended across model switches.
+//!
+//! Forces on the particle besides the constraint:
+//! - toward probable regions (Eq. 11–12): $S\,\nabla\tilde p/\lVert\nabla\tilde p\rVert$,
+//!   $S = a\,(1 + e^{(\tilde p(x) - v)/l})^{-1}$, with $\tilde p$ the model's relative latent
+//!   density ([`reprise_numerics::gplvm::LatentDensity::relative`]);
+//! - the random force ([`RandomForce`]), one draw per script;
+//! - a linear drag $-c\,\dot x$ (a deviation: the paper names no damping; without it the
+//!   random force keeps pumping energy into a particle that only the rim of the disc
+//!   slows down). `drag = 0` restores the paper.
+//!
+//! TRANSITION: among the bridges from the current label to the target, the one whose
+//! $x_1$ is nearest the particle; MOVE there (straight, small radius), hover, switch the model,
+//! restart at rest at $x_2$ and hover there while the output blends in rig space from the
+//! last pose of the old model, $p = (1-w)p_{old} + w\,g_{new}(x)$ with
+//! $w = 3s^2 - 2s^3$, $s = f/k$ over $k$ frames. Without a direct bridge it goes through
+//! the third label whose two bridges are closest; without one either, it is an error.
+//!
+//! PLAY: reach the segment's first latent (small radius), hover, then follow its embedding
+//! one training frame per output frame, entering at the segment's own speed, with a
+//! stiffer constraint (`play_omega0`).
+
+use reprise_numerics::gplvm::LatentModel;
+
+use crate::particle::{step_frame, ParticleParams, State};
+use crate::path::{graph_path, resample, EdgeCost};
+use crate::random::RandomForce;
+use crate::script::{Command, PathKind, Pose, Script};
+
+/// Why a script cannot run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SynthError {
+    /// A label no model has.
+    #[error("unknown label `{label}`; the models are: {known}")]
+    UnknownLabel {
+        /// Asked for.
+        label: String,
+        /// What there is.
+        known: String,
+    },
+    /// A pose that names no training frame, or a malformed one.
+    #[error("label `{label}`: {what}")]
+    BadPose {
+        /// Current label.
+        label: String,
+        /// What is wrong.
+        what: String,
+    },
+    /// No bridge connects two labels, directly or through a third.
+    #[error("no bridge from `{from}` to `{to}`, directly or through a third label")]
+    NoBridge {
+        /// From.
+        from: String,
+        /// To.
+        to: String,
+    },
+}
+
+/// A training frame of a model: where it is in the corpus and in latent space.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainingFrame {
+    /// Segment id.
+    pub segment: i64,
+    /// Clip.
+    pub clip: String,
+    /// Frame in the clip.
+    pub frame: i64,
+    /// Latent point.
+    pub x: Vec<f64>,
+}
+
+/// A bridge as the engine needs it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Link {
+    /// From label.
+    pub from: String,
+    /// To label.
+    pub to: String,
+    /// Latent point in `from`.
+    pub x1: Vec<f64>,
+    /// Latent point in `to`.
+    pub x2: Vec<f64>,
+    /// Rig distance of the two poses.
+    pub distance: f64,
+}
+
+/// The models, their training frames (same order) and the bridges.
+#[derive(Debug)]
+pub struct Library<'a> {
+    /// Models.
+    pub models: Vec<&'a LatentModel>,
+    /// Per model, its training frames.
+    pub frames: Vec<Vec<TrainingFrame>>,
+    /// Bridges.
+    pub links: Vec<Link>,
+}
+
+/// Engine settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// Frames per second.
+    pub fps: f64,
+    /// The constraint and integrator.
+    pub particle: ParticleParams,
+    /// Default path radius (latent units).
+    pub radius: f64,
+    /// Radius while reaching a bridge or a segment start.
+    pub tight_radius: f64,
+    /// Radius while playing a segment.
+    pub play_radius: f64,
+    /// $\omega_0$ while playing (stiffer than elsewhere, so the particle tracks the
+    /// embedding frame by frame; RK4 with 4 substeps at 24 fps is stable to ≈ 260 s⁻¹).
+    pub play_omega0: f64,
+    /// $a$ of Eq. 11.
+    pub density_force: f64,
+    /// $v$ of Eq. 11 (relative density).
+    pub density_threshold: f64,
+    /// $l$ of Eq. 11.
+    pub density_width: f64,
+    /// Random force variance $\alpha$.
+    pub random_variance: f64,
+    /// Random force squared time scale $\gamma$ (s²).
+    pub random_gamma: f64,
+    /// Fourier features per component.
+    pub random_features: usize,
+    /// Linear drag $c$ (s⁻¹).
+    pub drag: f64,
+    /// Seconds to reach a bridge or a segment start.
+    pub reach_seconds: f64,
+    /// Default blend length (frames).
+    pub blend_frames: usize,
+    /// MOVE graph: neighbours per point and cost exponent.
+    pub graph_k: usize,
+    /// Cost $\lVert\Delta\rVert^p$ (or the inverse, see [`EdgeCost`]).
+    pub graph_cost: EdgeCost,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            fps: 24.0,
+            particle: ParticleParams::default(),
+            radius: 0.25,
+            tight_radius: 0.05,
+            play_radius: 0.02,
+            play_omega0: 60.0,
+            density_force: 2.0,
+            density_threshold: 0.2,
+            density_width: 0.05,
+            random_variance: 0.25,
+            random_gamma: 0.05,
+            random_features: 32,
+            drag: 2.0,
+            reach_seconds: 0.5,
+            blend_frames: 12,
+            graph_k: 8,
+            graph_cost: EdgeCost::Power(4.0),
+        }
+    }
+}
+
+/// One synthesized frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    /// Frame index from 0.
+    pub frame: usize,
+    /// Seconds.
+    pub time: f64,
+    /// Index of the model in the library.
+    pub model: usize,
+    /// Latent point.
+    pub x: Vec<f64>,
+    /// Rig controls (blended across switches).
+    pub controls: Vec<f64>,
+    /// The command (index in the script) that produced it.
+    pub command: usize,
+}
+
+struct Run<'l, 'a> {
+    lib: &'l Library<'a>,
+    set: Settings,
+    model: usize,
+    state: State,
+    target: Vec<f64>,
+    out: Vec<Frame>,
+    random: RandomForce,
+    blend: Option<(Vec<f64>, usize, usize)>,
+    command: usize,
+}
+
+impl<'l, 'a> Run<'l, 'a> {
+    fn label(&self) -> &str {
+        &self.lib.models[self.model].label
+    }
+
+    fn model_index(&self, label: &str) -> Result<usize, SynthError> {
+        self.lib.models.iter().position(|m| m.label == label).ok_or_else(|| SynthError::UnknownLabel {
+            label: label.into(),
+            known: self.lib.models.iter().map(|m| m.label.as_str()).collect::<Vec<_>>().join(", "),
+        })
+    }
+
+    fn resolve(&self, pose: &Pose) -> Result<Vec<f64>, SynthError> {
+        let bad = |what: String| SynthError::BadPose { label: self.label().into(), what };
+        let q = self.lib.models[self.model].q();
+        if let Some(x) = &pose.latent {
+            if x.len() != q || x.iter().any(|v| !v.is_finite()) {
+                return Err(bad(format!("a latent pose needs {q} finite values, got {x:?}")));
+            }
+            return Ok(x.clone());
+        }
+        let frame = pose.frame.ok_or_else(|| bad("a pose needs `frame` (with `segment` or `clip`) or `latent`".into()))?;
+        self.lib.frames[self.model]
+            .iter()
+            .find(|f| f.frame == frame && pose.segment.is_none_or(|s| s == f.segment) && pose.clip.as_ref().is_none_or(|c| c == &f.clip))
+            .map(|f| f.x.clone())
+            .ok_or_else(|| bad(format!("no training frame {frame} of segment {:?} / clip {:?}", pose.segment, pose.clip)))
+    }
+
+    fn controls(&self, x: &[f64]) -> Vec<f64> {
+        let m = self.lib.models[self.model];
+        let mut p = vec![0.0; m.controls()];
+        m.controls_into(x, &mut vec![0.0; m.d()], &mut p);
+        p
+    }
+
+    /// Steps one frame toward `next` with radius `r` and records it.
+    fn frame(&mut self, next: &[f64], r: f64) {
+        let m = self.lib.models[self.model];
+        let set = self.set;
+        let dt = 1.0 / set.fps;
+        let t0 = self.out.len() as f64 * dt;
+        let random = &self.random;
+        let mut grad = vec![0.0; m.q()];
+        let mut rf = vec![0.0; m.q()];
+        let mut force = |x: &[f64], v: &[f64], t: f64, out: &mut [f64]| {
+            let p = m.density.relative(x, &mut grad);
+            let norm = grad.iter().map(|g| g * g).sum::<f64>().sqrt();
+            let s = set.density_force / (1.0 + ((p - set.density_threshold) / set.density_width).exp());
+            random.at(t, &mut rf);
+            for k in 0..out.len() {
+                let dens = if norm > 1e-300 && s.is_finite() { s * grad[k] / norm } else { 0.0 };
+                out[k] = dens + rf[k] - set.drag * v[k];
+            }
+        };
+        let prev = self.target.clone();
+        step_frame(&set.particle, &mut self.state, t0, dt, &prev, next, r, &mut force);
+        self.target = next.to_vec();
+        let mut controls = self.controls(&self.state.x);
+        if let Some((from, done, total)) = self.blend.take() {
+            let s = (done + 1) as f64 / total as f64;
+            let w = s * s * (3.0 - 2.0 * s);
+            controls.iter_mut().zip(&from).for_each(|(c, f)| *c = (1.0 - w) * f + w * *c);
+            if done + 1 < total {
+                self.blend = Some((from, done + 1, total));
+            }
+        }
+        self.out.push(Frame {
+            frame: self.out.len(),
+            time: t0 + dt,
+            model: self.model,
+            x: self.state.x.clone(),
+            controls,
+            command: self.command,
+        });
+    }
+
+    fn frames_for(&self, seconds: f64) -> usize {
+        ((seconds * self.set.fps).round() as usize).max(1)
+    }
+
+    fn go(&mut self, to: &[f64], frames: usize, kind: PathKind, r: f64) {
+        let m = self.lib.models[self.model];
+        let poly = match kind {
+            PathKind::Straight => vec![self.target.clone(), to.to_vec()],
+            PathKind::Graph => {
+                graph_path(m.predictor.x(), m.q(), &self.target, to, self.set.graph_k, self.set.graph_cost)
+            }
+        };
+        for p in resample(&poly, frames) {
+            self.frame(&p, r);
+        }
+    }
+
+    fn hold(&mut self, at: &[f64], frames: usize, r: f64) {
+        for _ in 0..frames {
+            self.frame(at, r);
+        }
+    }
+
+    fn best_link(&self, from: &str, to: &str) -> Option<&Link> {
+        self.lib
+            .links
+            .iter()
+            .filter(|l| l.from == from && l.to == to)
+            .min_by(|a, b| dist(&a.x1, &self.state.x).total_cmp(&dist(&b.x1, &self.state.x)))
+    }
+
+    fn switch(&mut self, to: usize, blend: usize) -> Result<(), SynthError> {
+        let (from, target) = (self.label().to_string(), self.lib.models[to].label.clone());
+        let link = self.best_link(&from, &target).cloned().ok_or(SynthError::NoBridge { from, to: target })?;
+        let reach = self.frames_for(self.set.reach_seconds);
+        self.go(&link.x1, reach, PathKind::Straight, self.set.tight_radius);
+        self.hold(&link.x1, reach.div_ceil(2), self.set.tight_radius);
+        let last = self.out.last().map(|f| f.controls.clone()).unwrap_or_else(|| self.controls(&self.state.x));
+        self.model = to;
+        self.state = State::at_rest(&link.x2);
+        self.target = link.x2.clone();
+        self.blend = Some((last, 0, blend));
+        self.hold(&link.x2, blend, self.set.tight_radius);
+        Ok(())
+    }
+
+    /// The route to `to`: direct, or through the third label with the closest bridges.
+    fn route(&self, to: usize) -> Result<Vec<usize>, SynthError> {
+        let (a, b) = (self.label(), self.lib.models[to].label.as_str());
+        let has = |x: &str, y: &str| self.lib.links.iter().any(|l| l.from == x && l.to == y);
+        if has(a, b) {
+            return Ok(vec![to]);
+        }
+        let best = |x: &str, y: &str| {
+            self.lib.links.iter().filter(|l| l.from == x && l.to == y).map(|l| l.distance).fold(f64::INFINITY, f64::min)
+        };
+        (0..self.lib.models.len())
+            .filter(|&c| c != self.model && c != to)
+            .map(|c| {
+                let cl = self.lib.models[c].label.as_str();
+                (best(a, cl) + best(cl, b), c)
+            })
+            .filter(|(d, _)| d.is_finite())
+            .min_by(|x, y| x.0.total_cmp(&y.0))
+            .map(|(_, c)| vec![c, to])
+            .ok_or(SynthError::NoBridge { from: a.into(), to: b.into() })
+    }
+
+    fn execute(&mut self, c: &Command) -> Result<(), SynthError> {
+        match c {
+            Command::Idle { duration, radius, poses, hover } => {
+                let r = radius.unwrap_or(self.set.radius);
+                let total = self.frames_for(*duration);
+                let points: Vec<Vec<f64>> = if poses.is_empty() {
+                    vec![self.target.clone()]
+                } else {
+                    poses.iter().map(|p| self.resolve(p)).collect::<Result<_, _>>()?
+                };
+                let per = hover.map_or(total.div_ceil(points.len()), |h| self.frames_for(h));
+                let mut done = 0;
+                for p in points.iter().cycle() {
+                    if done >= total {
+                        break;
+                    }
+                    let reach = if dist(p, &self.target) > 1e-12 { self.frames_for(self.set.reach_seconds).min(total - done) } else { 0 };
+                    self.go(p, reach.max(1), PathKind::Straight, r);
+                    done += reach.max(1);
+                    let n = per.min(total.saturating_sub(done));
+                    self.hold(p, n, r);
+                    done += n;
+                }
+            }
+            Command::Move { to, duration, path, radius } => {
+                let x = self.resolve(to)?;
+                let r = radius.unwrap_or(self.set.radius);
+                let n = self.frames_for(*duration);
+                self.go(&x, n, *path, r);
+            }
+            Command::Transition { to, blend_frames } => {
+                let to = self.model_index(to)?;
+                if to != self.model {
+                    for hop in self.route(to)? {
+                        self.switch(hop, blend_frames.unwrap_or(self.set.blend_frames))?;
+                    }
+                }
+            }
+            Command::Play { segment, clip } => {
+                let label = self.label().to_string();
+                let frames: Vec<&TrainingFrame> = self.lib.frames[self.model]
+                    .iter()
+                    .filter(|f| segment.is_none_or(|s| s == f.segment) && clip.as_ref().is_none_or(|c| c == &f.clip))
+                    .collect();
+                let Some(first) = frames.iter().min_by_key(|f| (f.segment, f.frame)) else {
+                    return Err(SynthError::BadPose { label, what: format!("no segment {segment:?} / clip {clip:?} to play") });
+                };
+                let seg = first.segment;
+                let mut seq: Vec<&TrainingFrame> = frames.iter().copied().filter(|f| f.segment == seg).collect();
+                seq.sort_by_key(|f| f.frame);
+                let xs: Vec<Vec<f64>> = seq.iter().map(|f| f.x.clone()).collect();
+                let reach = self.frames_for(self.set.reach_seconds);
+                self.go(&xs[0], reach, PathKind::Straight, self.set.tight_radius);
+                self.hold(&xs[0], reach.div_ceil(2), self.set.tight_radius);
+                // Enter the segment at its own speed.
+                if let Some(x1) = xs.get(1) {
+                    let fps = self.set.fps;
+                    self.state.v.iter_mut().zip(x1.iter().zip(&xs[0])).for_each(|(v, (b, a))| *v = (b - a) * fps);
+                }
+                let normal = self.set.particle.omega0;
+                self.set.particle.omega0 = self.set.play_omega0;
+                for x in &xs[1..] {
+                    self.frame(x, self.set.play_radius);
+                }
+                self.set.particle.omega0 = normal;
+            }
+        }
+        Ok(())
+    }
+}
+
+fn dist(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
+}
+
+/// Runs a script: one frame per $1/\text{fps}$ seconds from its start pose.
+pub fn run(lib: &Library<'_>, script: &Script, set: &Settings) -> Result<Vec<Frame>, SynthError> {
+    let q = lib.models.first().map_or(0, |m| m.q());
+    let mut run = Run {
+        lib,
+        set: *set,
+        model: 0,
+        state: State::at_rest(&vec![0.0; q]),
+        target: vec![0.0; q],
+        out: Vec::new(),
+        random: RandomForce::new(q, set.random_variance, set.random_gamma, set.random_features, script.seed),
+        blend: None,
+        command: 0,
+    };
+    run.model = run.model_index(&script.start.label)?;
+    let x0 = run.resolve(&script.start.pose())?;
+    run.state = State::at_rest(&x0);
+    run.target = x0;
+    for (i, c) in script.commands.iter().enumerate() {
+        run.command = i;
+        run.execute(c)?;
+    }
+    Ok(run.out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::script::Start;
+    use reprise_numerics::gplvm::{Hyper, LikelihoodConfig, Predictor, RigMap};
+
+    /// A model over 40 latent points along an arc (two segments of 20), outputs a smooth
+    /// function of the latent, mapped to 3 controls (identity PCA, unit weights) plus an offset.
+    fn model(label: &str, shift: f64) -> (LatentModel, Vec<TrainingFrame>) {
+        let (n, d) = (40, 3);
+        let x: Vec<f64> = (0..n).flat_map(|i| [(i as f64 * 0.08).cos() * 1.5, (i as f64 * 0.08).sin() * 1.5]).collect();
+        let y: Vec<f64> = (0..n)
+            .flat_map(|i| {
+                let (a, b) = (x[2 * i], x[2 * i + 1]);
+                [a.sin() + shift, (a * b).cos() - 0.5, b + 0.3 * shift]
+            })
+            .collect();
+        let hyper = Hyper { rbf_variance: 1.0, lengthscale: 0.6, white_variance: 1e-4 };
+        let pred = Predictor::new(&x, &y, d, hyper, &LikelihoodConfig::default()).unwrap();
+        let eye = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+        let map = RigMap::from_pca(&[0.0; 3], &eye, &[0.0; 3], &[1.0; 3]).unwrap();
+        let frames = (0..n)
+            .map(|i| TrainingFrame { segment: (i / 20) as i64, clip: format!("{label}_c{}", i / 20), frame: (i % 20) as i64, x: x[2 * i..2 * i + 2].to_vec() })
+            .collect();
+        (LatentModel::new(label.into(), pred, vec![0.0; 3], map).unwrap(), frames)
+    }
+
+    fn script(commands: Vec<Command>, seed: u64) -> Script {
+        let start = Start { label: "a".into(), segment: Some(0), clip: None, frame: Some(0), latent: None };
+        Script { name: None, seed, start, commands }
+    }
+
+    fn with_lib<R>(links: Vec<Link>, f: impl FnOnce(&Library<'_>) -> R) -> R {
+        let (a, fa) = model("a", 0.0);
+        let (b, fb) = model("b", 0.7);
+        let (c, fc) = model("c", -0.4);
+        let lib = Library { models: vec![&a, &b, &c], frames: vec![fa, fb, fc], links };
+        f(&lib)
+    }
+
+    fn link(from: &str, to: &str, x1: [f64; 2], x2: [f64; 2]) -> Link {
+        Link { from: from.into(), to: to.into(), x1: x1.to_vec(), x2: x2.to_vec(), distance: 0.1 }
+    }
+
+    /// The same seed gives identical frames; another seed differs.
+    #[test]
+    fn deterministic_per_seed() {
+        let cmds = vec![Command::Idle { duration: 2.0, radius: Some(0.3), poses: vec![], hover: None }];
+        with_lib(vec![], |lib| {
+            let s = Settings::default();
+            let a = run(lib, &script(cmds.clone(), 4), &s).unwrap();
+            let b = run(lib, &script(cmds.clone(), 4), &s).unwrap();
+            let c = run(lib, &script(cmds, 5), &s).unwrap();
+            assert_eq!(a, b);
+            assert_ne!(a, c);
+            assert_eq!(a.len(), 48);
+        });
+    }
+
+    /// IDLE about a fixed pose keeps the particle within (about) r of it after settling.
+    #[test]
+    fn idle_stays_near_its_pose() {
+        let cmds = vec![Command::Idle { duration: 4.0, radius: Some(0.2), poses: vec![], hover: None }];
+        with_lib(vec![], |lib| {
+            let out = run(lib, &script(cmds, 1), &Settings::default()).unwrap();
+            let x0 = [1.5, 0.0];
+            let worst = out[24..].iter().map(|f| dist(&f.x, &x0)).fold(0.0, f64::max);
+            assert!(worst < 0.2 * 1.25, "strays {worst}");
+        });
+    }
+
+    /// TRANSITION reaches the bridge, switches model there, and the blended controls have
+    /// no jump: the largest frame-to-frame change across the switch is no larger than
+    /// elsewhere in the run (times a small factor).
+    #[test]
+    fn transition_switches_at_a_bridge_continuously() {
+        let links = vec![link("a", "b", [0.8, 1.27], [0.8, 1.27])];
+        let cmds = vec![
+            Command::Idle { duration: 1.0, radius: None, poses: vec![], hover: None },
+            Command::Transition { to: "b".into(), blend_frames: Some(12) },
+            Command::Idle { duration: 1.0, radius: None, poses: vec![], hover: None },
+        ];
+        with_lib(links, |lib| {
+            let out = run(lib, &script(cmds, 2), &Settings::default()).unwrap();
+            let sw = out.iter().position(|f| f.model == 1).expect("switched");
+            assert!(out[..sw].iter().all(|f| f.model == 0) && out[sw..].iter().all(|f| f.model == 1));
+            assert!(dist(&out[sw - 1].x, &[0.8, 1.27]) < 2.0 * Settings::default().tight_radius, "switches at the bridge: {:?}", out[sw - 1].x);
+            let step = |i: usize| dist(&out[i].controls, &out[i - 1].controls);
+            let across = (sw..sw + 12).map(step).fold(0.0, f64::max);
+            // Without the blend the switch would jump by the offset between the models (≈0.7).
+            assert!(across < 0.15, "largest step across the blend {across}");
+        });
+    }
+
+    /// No direct bridge: the route goes through the third label; with none, a clear error.
+    #[test]
+    fn transition_routes_through_a_third_label() {
+        let links = vec![link("a", "c", [1.5, 0.0], [1.5, 0.0]), link("c", "b", [1.0, 1.1], [1.0, 1.1])];
+        let cmds = vec![Command::Transition { to: "b".into(), blend_frames: None }];
+        with_lib(links, |lib| {
+            let out = run(lib, &script(cmds.clone(), 0), &Settings::default()).unwrap();
+            let models: Vec<usize> = out.iter().map(|f| f.model).collect();
+            assert!(models.contains(&2) && models.last() == Some(&1), "{models:?}");
+        });
+        with_lib(vec![], |lib| {
+            let e = run(lib, &script(cmds, 0), &Settings::default()).unwrap_err();
+            assert_eq!(e, SynthError::NoBridge { from: "a".into(), to: "b".into() });
+            let bad = vec![Command::Transition { to: "zzz".into(), blend_frames: None }];
+            assert!(run(lib, &script(bad, 0), &Settings::default()).unwrap_err().to_string().contains("a, b, c"));
+        });
+    }
+
+    /// PLAY follows the segment's embedding: the controls match the model's reconstruction
+    /// of each training frame closely.
+    #[test]
+    fn play_reproduces_its_segment() {
+        let cmds = vec![Command::Play { segment: Some(1), clip: None }];
+        with_lib(vec![], |lib| {
+            let out = run(lib, &script(cmds, 3), &Settings { random_variance: 0.0, ..Default::default() }).unwrap();
+            let m = lib.models[0];
+            let seg: Vec<&TrainingFrame> = lib.frames[0].iter().filter(|f| f.segment == 1).collect();
+            let played = &out[out.len() - (seg.len() - 1)..];
+            let mut want = vec![0.0; 3];
+            let mut worst: f64 = 0.0;
+            for (f, t) in played.iter().zip(&seg[1..]) {
+                m.controls_into(&t.x, &mut vec![0.0; 3], &mut want);
+                worst = worst.max(dist(&f.controls, &want));
+            }
+            assert!(worst < 0.1, "worst control error {worst}");
+        });
+    }
+}

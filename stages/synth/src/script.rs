@@ -1,0 +1,212 @@
+//! The script format: a TOML file of timed commands (§5.3).
+//!
+//! ```toml
+//! name = "reaction"                                   # optional; default: the file stem
+//! seed = 1                                            # the random force's seed
+//! start = { label = "neutral", segment = 20, frame = 0 }
+//!
+//! [[command]]
+//! type = "idle"          # hover about the current point (or `poses`) within `radius`
+//! duration = 2.0         # seconds
+//! radius = 0.3
+//! poses = [{ segment = 20, frame = 40 }, { clip = "neutral_take02", frame = 10 }]
+//! hover = 0.8            # seconds at each pose
+//!
+//! [[command]]
+//! type = "move"          # to a pose of the current label over `duration` seconds
+//! to = { latent = [0.1, -0.4, 0.9] }
+//! duration = 1.0
+//! path = "graph"         # or "straight"
+//!
+//! [[command]]
+//! type = "transition"    # to another label through the nearest bridge
+//! to = "roar"
+//! blend_frames = 12
+//!
+//! [[command]]
+//! type = "play"          # a training segment of the current label, through its embedding
+//! segment = 14           # or clip = "roar_take01"
+//! ```
+//!
+//! A pose names a training frame of the current label by `segment` (id) or `clip`, and
+//! `frame` (the clip's frame number), or a latent point directly (`latent`).
+
+use serde::Deserialize;
+
+/// A pose in the current label.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pose {
+    /// Segment id.
+    pub segment: Option<i64>,
+    /// Clip name.
+    pub clip: Option<String>,
+    /// Frame number in the clip.
+    pub frame: Option<i64>,
+    /// A latent point instead.
+    pub latent: Option<Vec<f64>>,
+}
+
+/// The starting pose and label.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Start {
+    /// The starting label.
+    pub label: String,
+    /// Segment id.
+    pub segment: Option<i64>,
+    /// Clip name.
+    pub clip: Option<String>,
+    /// Frame number.
+    pub frame: Option<i64>,
+    /// A latent point instead.
+    pub latent: Option<Vec<f64>>,
+}
+
+impl Start {
+    /// The pose part.
+    pub fn pose(&self) -> Pose {
+        Pose { segment: self.segment, clip: self.clip.clone(), frame: self.frame, latent: self.latent.clone() }
+    }
+}
+
+/// How MOVE goes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum PathKind {
+    /// Shortest path through the training points (cost ‖Δ‖^p).
+    #[default]
+    Graph,
+    /// Straight line.
+    Straight,
+}
+
+/// One command.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Command {
+    /// Hover about poses.
+    Idle {
+        /// Seconds.
+        duration: f64,
+        /// Radius (latent units); default the engine's.
+        radius: Option<f64>,
+        /// Poses to hover about in turn; default the current point.
+        #[serde(default)]
+        poses: Vec<Pose>,
+        /// Seconds at each pose (default: the whole duration over the poses).
+        hover: Option<f64>,
+    },
+    /// Go to a pose.
+    Move {
+        /// Target.
+        to: Pose,
+        /// Seconds.
+        duration: f64,
+        /// Path shape.
+        #[serde(default)]
+        path: PathKind,
+        /// Radius; default the engine's.
+        radius: Option<f64>,
+    },
+    /// Switch label through a bridge.
+    Transition {
+        /// Target label.
+        to: String,
+        /// Rig-space blend length in frames (default 12).
+        blend_frames: Option<usize>,
+    },
+    /// Play a training segment.
+    Play {
+        /// Segment id.
+        segment: Option<i64>,
+        /// Or the clip.
+        clip: Option<String>,
+    },
+}
+
+/// A parsed script.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Script {
+    /// Name (default: the file stem).
+    pub name: Option<String>,
+    /// Seed of the random force (default 0).
+    #[serde(default)]
+    pub seed: u64,
+    /// Where it starts.
+    pub start: Start,
+    /// The commands, in order.
+    #[serde(default, rename = "command")]
+    pub commands: Vec<Command>,
+}
+
+impl Script {
+    /// Parses TOML text; errors carry the line and column.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let s: Script = toml::from_str(text).map_err(|e| e.to_string())?;
+        for (i, c) in s.commands.iter().enumerate() {
+            let bad = |what: &str| Err(format!("command {} ({c:?}): {what}", i + 1));
+            match c {
+                Command::Idle { duration, radius, hover, .. } => {
+                    if !(*duration > 0.0) || radius.is_some_and(|r| !(r > 0.0)) || hover.is_some_and(|h| !(h > 0.0)) {
+                        return bad("duration, radius and hover must be positive");
+                    }
+                }
+                Command::Move { duration, radius, .. } => {
+                    if !(*duration > 0.0) || radius.is_some_and(|r| !(r > 0.0)) {
+                        return bad("duration and radius must be positive");
+                    }
+                }
+                Command::Transition { blend_frames, .. } => {
+                    if blend_frames == &Some(0) {
+                        return bad("blend_frames must be at least 1");
+                    }
+                }
+                Command::Play { segment, clip } => {
+                    if segment.is_some() == clip.is_some() {
+                        return bad("give exactly one of segment and clip");
+                    }
+                }
+            }
+        }
+        Ok(s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every command parses; unknown keys and bad values are errors naming the place.
+    #[test]
+    fn parses_and_refuses() {
+        let s = Script::parse(
+            r#"
+            seed = 3
+            start = { label = "roar", segment = 2, frame = 0 }
+            [[command]]
+            type = "idle"
+            duration = 1.5
+            [[command]]
+            type = "move"
+            to = { latent = [0.0, 1.0, 2.0] }
+            duration = 1.0
+            path = "straight"
+            [[command]]
+            type = "transition"
+            to = "happy"
+            [[command]]
+            type = "play"
+            clip = "happy_take01"
+            "#,
+        )
+        .unwrap();
+        assert_eq!(s.commands.len(), 4);
+        assert!(matches!(s.commands[1], Command::Move { path: PathKind::Straight, .. }));
+        let e = Script::parse("start = { label = \"a\" }\n[[command]]\ntype = \"idle\"\nduration = 1.0\nradus = 2.0\n");
+        assert!(e.unwrap_err().contains("radus"));
+        let e = Script::parse("start = { label = \"a\" }\n[[command]]\ntype = \"play\"\n");
+        assert!(e.unwrap_err().contains("exactly one"));
+    }
+}
