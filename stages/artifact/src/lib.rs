@@ -12,6 +12,7 @@
 //! | `pca_models`, `pca_coords`, `pca_errors` | [`pca`] | pca | gplvm, bridges, evaluate |
 //! | `gplvm_latents`, `gplvm_models`, `gplvm_trace`, `gplvm_fits` | [`gplvm`] | gplvm | bridges, synthesize, evaluate |
 //! | `bridges` | [`bridges`] | bridges | synthesize, evaluate |
+//! | `curves` | [`curves`] | synthesize | evaluate, glTF export |
 //!
 //! Every file carries provenance ([`provenance`]) in its Parquet key-value metadata and
 //! is written atomically ([`table::write_atomic`]).
@@ -24,13 +25,14 @@ mod kinds {
     pub mod bridges;
     pub mod clips;
     pub mod controls;
+    pub mod curves;
     pub mod frames;
     pub mod gplvm;
     pub mod pca;
     pub mod scales;
     pub mod segments;
 }
-pub use kinds::{bridges, clips, controls, frames, gplvm, pca, scales, segments};
+pub use kinds::{bridges, clips, controls, curves, frames, gplvm, pca, scales, segments};
 
 pub use error::{ArtifactError, Result};
 pub use provenance::Provenance;

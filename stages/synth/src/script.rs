@@ -33,6 +33,7 @@
 
 use serde::Deserialize;
 
+
 /// A pose in the current label.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -145,6 +146,45 @@ impl Script {
     /// Parses TOML text; errors carry the line and column.
     pub fn parse(text: &str) -> Result<Self, String> {
         let s: Script = toml::from_str(text).map_err(|e| e.to_string())?;
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// Parses a file of one script, or of several as `[[script]]` tables (each needing a
+    /// `name`); `stem` names a single unnamed script.
+    pub fn parse_file(text: &str, stem: &str) -> Result<Vec<Self>, String> {
+        let table: toml::Table = toml::from_str(text).map_err(|e| e.to_string())?;
+        let Some(list) = table.get("script") else {
+            let mut s = Self::parse(text)?;
+            s.name.get_or_insert_with(|| stem.to_string());
+            return Ok(vec![s]);
+        };
+        if table.len() != 1 {
+            return Err("a file with [[script]] tables may hold nothing else".into());
+        }
+        let list = list.as_array().ok_or("`script` must be an array of tables ([[script]])")?;
+        let scripts = list
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                let s = Script::deserialize(v.clone()).map_err(|e| format!("script {}: {e}", i + 1))?;
+                if s.name.is_none() {
+                    return Err(format!("script {} needs a `name`", i + 1));
+                }
+                s.validate().map_err(|e| format!("script `{}`: {e}", s.name.as_deref().unwrap_or("")))?;
+                Ok(s)
+            })
+            .collect::<Result<Vec<_>, String>>()?;
+        let mut names: Vec<&str> = scripts.iter().filter_map(|s| s.name.as_deref()).collect();
+        names.sort_unstable();
+        if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
+            return Err(format!("two scripts are named `{}`", w[0]));
+        }
+        Ok(scripts)
+    }
+
+    fn validate(&self) -> Result<(), String> {
+        let s = self;
         for (i, c) in s.commands.iter().enumerate() {
             let bad = |what: &str| Err(format!("command {} ({c:?}): {what}", i + 1));
             match c {
@@ -170,7 +210,7 @@ impl Script {
                 }
             }
         }
-        Ok(s)
+        Ok(())
     }
 }
 

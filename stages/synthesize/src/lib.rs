@@ -1,0 +1,273 @@
+//! The synthesize stage (Bailey et al. 2016 §5): every script of a scripts file (see
+//! [`reprise_synth::script`]) is run by the command engine ([`reprise_synth::engine`])
+//! over the label models and bridges, and written as rig-control curves. Scripts run in
+//! parallel; each is deterministic for its seed.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::{Parser, ValueEnum};
+use rayon::prelude::*;
+use reprise_artifact::bridges;
+use reprise_artifact::curves::{self, Curves};
+use reprise_artifact::gplvm;
+use reprise_stagekit::{StageError, StageResult};
+use reprise_synth::engine::{self, Library, Link, Settings, TrainingFrame};
+use reprise_synth::particle::ConstraintSign;
+use reprise_synth::path::EdgeCost;
+use reprise_synth::script::Script;
+use serde::Serialize;
+
+/// The constraint multiplier's sign.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Sign {
+    /// method.md §6: the Baumgarte law solved correctly.
+    Corrected,
+    /// The paper's Eq. 9–10 as printed (for comparison; the constraint never pulls).
+    SeedLiteral,
+}
+
+/// How the MOVE graph's edges cost.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Cost {
+    /// ‖Δ‖^p.
+    Power,
+    /// ‖Δ‖^−p (the paper's weight read as a cost).
+    InversePower,
+}
+
+/// `reprise-synthesize`: scripts to rig-control curves.
+#[derive(Debug, Clone, Parser, Serialize)]
+#[command(name = "reprise-synthesize", version, about)]
+pub struct Args {
+    /// Input: the GPLVM models.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub gplvm_models: PathBuf,
+    /// Input: the GPLVM latents (which training frame each latent point is).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub latents: PathBuf,
+    /// Input: the PCA models.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub pca_models: PathBuf,
+    /// Input: the scales.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub scales: PathBuf,
+    /// Input: the bridges.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub bridges: PathBuf,
+    /// Input: a scripts file (TOML: one script, or several as [[script]] tables).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub scripts: PathBuf,
+    /// Output: the curves.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub curves: PathBuf,
+    /// Frames per second.
+    #[arg(long, default_value_t = 24.0)]
+    pub fps: f64,
+    /// Default path radius (latent units).
+    #[arg(long, default_value_t = 0.25)]
+    pub radius: f64,
+    /// Baumgarte ω₀ (s⁻¹).
+    #[arg(long, default_value_t = 8.0)]
+    pub omega0: f64,
+    /// The multiplier formula.
+    #[arg(long, value_enum, default_value_t = Sign::Corrected)]
+    pub sign: Sign,
+    /// RK4 steps per frame.
+    #[arg(long, default_value_t = 4)]
+    pub substeps: usize,
+    /// a of Eq. 11 (force toward probable regions).
+    #[arg(long, default_value_t = 2.0)]
+    pub density_force: f64,
+    /// v of Eq. 11 (relative latent density).
+    #[arg(long, default_value_t = 0.2)]
+    pub density_threshold: f64,
+    /// Random force variance α.
+    #[arg(long, default_value_t = 0.25)]
+    pub random_variance: f64,
+    /// Random force squared time scale γ (s²).
+    #[arg(long, default_value_t = 0.05)]
+    pub random_gamma: f64,
+    /// Linear drag c (s⁻¹; 0 = the paper, which names none).
+    #[arg(long, default_value_t = 2.0)]
+    pub drag: f64,
+    /// TRANSITION blend length in frames.
+    #[arg(long, default_value_t = 12)]
+    pub blend_frames: usize,
+    /// MOVE graph edge cost.
+    #[arg(long, value_enum, default_value_t = Cost::Power)]
+    pub graph_cost: Cost,
+    /// MOVE graph cost exponent p.
+    #[arg(long, default_value_t = 4.0)]
+    pub graph_power: f64,
+    /// Only validate the flags and exit.
+    #[arg(long)]
+    #[serde(skip)]
+    pub check: bool,
+}
+
+impl Args {
+    /// The engine settings.
+    pub fn settings(&self) -> Settings {
+        let d = Settings::default();
+        Settings {
+            fps: self.fps,
+            particle: reprise_synth::particle::ParticleParams {
+                omega0: self.omega0,
+                sign: match self.sign {
+                    Sign::Corrected => ConstraintSign::Corrected,
+                    Sign::SeedLiteral => ConstraintSign::SeedLiteral,
+                },
+                substeps: self.substeps,
+                ..d.particle
+            },
+            radius: self.radius,
+            density_force: self.density_force,
+            density_threshold: self.density_threshold,
+            random_variance: self.random_variance,
+            random_gamma: self.random_gamma,
+            drag: self.drag,
+            blend_frames: self.blend_frames,
+            graph_cost: match self.graph_cost {
+                Cost::Power => EdgeCost::Power(self.graph_power),
+                Cost::InversePower => EdgeCost::InversePower(self.graph_power),
+            },
+            ..d
+        }
+    }
+
+    fn validate(&self) -> StageResult<()> {
+        let pos = |v: f64| v.is_finite() && v > 0.0;
+        let ok = pos(self.fps)
+            && pos(self.radius)
+            && pos(self.omega0)
+            && self.substeps >= 1
+            && self.density_force >= 0.0
+            && self.random_variance >= 0.0
+            && pos(self.random_gamma)
+            && self.drag >= 0.0
+            && self.blend_frames >= 1
+            && pos(self.graph_power);
+        if ok {
+            Ok(())
+        } else {
+            Err(StageError::Config(
+                "need positive --fps, --radius, --omega0, --random-gamma, --graph-power; --substeps and \
+                 --blend-frames >= 1; non-negative forces and drag"
+                    .into(),
+            ))
+        }
+    }
+}
+
+/// One script's outcome.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScriptSummary {
+    /// Name.
+    pub name: String,
+    /// Frames.
+    pub frames: usize,
+    /// Model switches.
+    pub switches: usize,
+    /// Microseconds per frame (particle step + reconstruction).
+    pub us_per_frame: f64,
+}
+
+/// Runs the stage (or only validates, with `--check`).
+pub fn run(args: &Args) -> StageResult<Option<Vec<ScriptSummary>>> {
+    args.validate()?;
+    if args.check {
+        return Ok(None);
+    }
+    let mut provenance = reprise_stagekit::provenance("synthesize", env!("CARGO_PKG_VERSION"), args);
+    for (role, p) in [
+        ("gplvm_models", &args.gplvm_models),
+        ("latents", &args.latents),
+        ("pca_models", &args.pca_models),
+        ("scales", &args.scales),
+        ("bridges", &args.bridges),
+        ("scripts", &args.scripts),
+    ] {
+        provenance = provenance.with_input(role, p)?;
+    }
+    let text = std::fs::read_to_string(&args.scripts)
+        .map_err(|e| StageError::Input(format!("{}: {e}", args.scripts.display())))?;
+    let stem = args.scripts.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let scripts =
+        Script::parse_file(&text, &stem).map_err(|e| StageError::Input(format!("{}: {e}", args.scripts.display())))?;
+    let models = reprise_model::load(&args.gplvm_models, &args.pca_models, &args.scales)?;
+    let latents = gplvm::read_latents(&args.latents)?;
+    let frames: Vec<Vec<TrainingFrame>> = models
+        .models
+        .iter()
+        .map(|m| {
+            let f: Vec<TrainingFrame> = (0..latents.label.len())
+                .filter(|&r| latents.label[r] == m.label)
+                .map(|r| TrainingFrame {
+                    segment: latents.segment_id[r],
+                    clip: latents.clip[r].clone(),
+                    frame: latents.frame[r],
+                    x: latents.x[r].clone(),
+                })
+                .collect();
+            if f.len() != m.predictor.n() {
+                return Err(StageError::Input(format!(
+                    "{}: label `{}` has {} latent rows but its model {} points; rerun gplvm",
+                    args.latents.display(),
+                    m.label,
+                    f.len(),
+                    m.predictor.n()
+                )));
+            }
+            Ok(f)
+        })
+        .collect::<StageResult<_>>()?;
+    let links = bridges::read(&args.bridges)?
+        .into_iter()
+        .map(|b| Link { from: b.from, to: b.to, x1: b.x1, x2: b.x2, distance: b.rig_distance })
+        .collect();
+    let lib = Library { models: models.models.iter().collect(), frames, links };
+    let settings = args.settings();
+    let results: Vec<StageResult<(String, Vec<engine::Frame>, f64)>> = scripts
+        .par_iter()
+        .map(|s| {
+            let name = s.name.clone().unwrap_or_default();
+            let start = Instant::now();
+            let out = engine::run(&lib, s, &settings)
+                .map_err(|e| StageError::Input(format!("{}: script `{name}`: {e}", args.scripts.display())))?;
+            Ok((name, out, start.elapsed().as_secs_f64()))
+        })
+        .collect();
+    let mut curves = Curves { fps: args.fps, controls: models.controls.clone(), ..Default::default() };
+    let mut summaries = Vec::new();
+    for r in results {
+        let (name, out, secs) = r?;
+        let switches = out.windows(2).filter(|w| w[0].model != w[1].model).count();
+        summaries.push(ScriptSummary {
+            name: name.clone(),
+            frames: out.len(),
+            switches,
+            us_per_frame: secs * 1e6 / out.len().max(1) as f64,
+        });
+        for f in out {
+            curves.script.push(name.clone());
+            curves.frame.push(f.frame as i64);
+            curves.time.push(f.time);
+            curves.model.push(lib.models[f.model].label.clone());
+            curves.command.push(f.command as i64);
+            curves.x.push(f.x);
+            curves.values.extend(f.controls);
+        }
+    }
+    curves::write(&args.curves, &curves, &provenance)?;
+    Ok(Some(summaries))
+}
