@@ -20,7 +20,8 @@
 //! $\eta = 0.5$: within $r/\sqrt2$), where the inequality is comfortably satisfied and the
 //! conservative Baumgarte law would otherwise still act on a fast particle.
 //!
-//! **Integration**: classical RK4 over one frame interval, in `substeps` equal steps, with
+//! **Integration**: classical RK4 over one frame interval, in equal steps (`substeps`, or
+//! more so that $\omega_0 h \le 1/2$), with
 //! $p(t)$ linear inside the interval (so $\ddot p = 0$) — never across frames, where
 //! $\dot p$ jumps.
 
@@ -42,7 +43,8 @@ pub struct ParticleParams {
     pub zeta: f64,
     /// Multiplier formula (default corrected).
     pub sign: ConstraintSign,
-    /// RK4 steps per frame (default 4).
+    /// RK4 steps per frame, at least (default 2); more when $\omega_0\Delta t > 1/2$, so
+    /// that every step has $\omega_0 h \le 1/2$ (accurate; RK4 is stable to 2.78).
     pub substeps: usize,
     /// Guard: no constraint force within $\varepsilon r$ of the path point (default $10^{-3}$).
     pub guard: f64,
@@ -52,7 +54,7 @@ pub struct ParticleParams {
 
 impl Default for ParticleParams {
     fn default() -> Self {
-        Self { omega0: 8.0, zeta: 1.0, sign: ConstraintSign::Corrected, substeps: 4, guard: 1e-3, inner: 0.5 }
+        Self { omega0: 8.0, zeta: 1.0, sign: ConstraintSign::Corrected, substeps: 2, guard: 1e-3, inner: 0.5 }
     }
 }
 
@@ -113,7 +115,8 @@ pub fn step_frame(
 ) {
     let q = state.x.len();
     let pdot: Vec<f64> = p0.iter().zip(p1).map(|(a, b)| (b - a) / dt).collect();
-    let h = dt / params.substeps.max(1) as f64;
+    let steps = params.substeps.max(1).max((2.0 * params.omega0 * dt).ceil() as usize);
+    let h = dt / steps as f64;
     let mut f = vec![0.0; q];
     let (mut g, mut rel) = (vec![0.0; q], vec![0.0; q]);
     // The acceleration at (x, v, t): F + λ g.
@@ -131,7 +134,7 @@ pub fn step_frame(
     };
     let mut k = [vec![0.0; q], vec![0.0; q], vec![0.0; q], vec![0.0; q]];
     let (mut xs, mut vs) = (vec![0.0; q], vec![0.0; q]);
-    for sub in 0..params.substeps.max(1) {
+    for sub in 0..steps {
         let t = t0 + sub as f64 * h;
         let (x, v) = (state.x.clone(), state.v.clone());
         // RK4 on (x, v): k_x = v, k_v = a(x, v, t).

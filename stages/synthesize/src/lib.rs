@@ -82,8 +82,8 @@ pub struct Args {
     /// The multiplier formula.
     #[arg(long, value_enum, default_value_t = Sign::Corrected)]
     pub sign: Sign,
-    /// RK4 steps per frame.
-    #[arg(long, default_value_t = 4)]
+    /// RK4 steps per frame, at least (more when ω₀/fps > 1/2).
+    #[arg(long, default_value_t = 2)]
     pub substeps: usize,
     /// a of Eq. 11 (force toward probable regions).
     #[arg(long, default_value_t = 2.0)]
