@@ -9,7 +9,10 @@ use crate::util::Project;
 
 /// The default pipeline with a short fit (the default budget is a benchmark's business).
 fn short(p: &Project, iters: usize) {
-    let toml = p.read("pipeline.toml").replace("max_iters = 300", &format!("max_iters = {iters}"));
+    let toml = p
+        .read("pipeline.toml")
+        .replace("max_iters = 300", &format!("max_iters = {iters}"))
+        .replace("stride = 1", "stride = 5");
     assert!(toml.contains(&format!("max_iters = {iters}")), "the default pipeline sets max_iters");
     p.write("pipeline.toml", &toml);
 }
@@ -59,6 +62,28 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
 
     // Nothing changed: gplvm is cached.
     assert!(!p.reprise(&["run", "--to", "gplvm"]).ok().contains("ran gplvm"));
+
+    // Bridges for every ordered pair, and the shipped scripts synthesized through them.
+    let out = p.reprise(&["run"]).ok();
+    assert!(out.contains("ran bridges") && out.contains("ran synthesize"), "{out}");
+    let bridges = reprise_artifact::bridges::read(&a("bridges")).unwrap();
+    let pairs: std::collections::BTreeSet<(&str, &str)> =
+        bridges.iter().map(|b| (b.from.as_str(), b.to.as_str())).collect();
+    assert_eq!(pairs.len(), 56, "every ordered pair of 8 labels keeps at least one bridge");
+    assert!(bridges.iter().all(|b| b.mesh_distance.is_some_and(|m| m.is_finite()) && b.rank >= 1));
+    let curves = reprise_artifact::curves::read(&a("curves")).unwrap();
+    let scripts: std::collections::BTreeSet<&str> = curves.script.iter().map(String::as_str).collect();
+    assert_eq!(scripts.into_iter().collect::<Vec<_>>(), ["neutral_moves", "tic_tac_toe", "tour"]);
+    assert!(curves.values.iter().all(|v| v.is_finite()));
+    let game: Vec<usize> = (0..curves.script.len()).filter(|&r| curves.script[r] == "tic_tac_toe").collect();
+    let switches = game.windows(2).filter(|w| curves.model[w[0]] != curves.model[w[1]]).count();
+    assert_eq!(switches, 6, "the game script switches model six times");
+    // The same seeds give the same curves.
+    let before = std::fs::read(a("curves")).unwrap();
+    p.reprise(&["run", "--force", "synthesize"]).ok();
+    let again = reprise_artifact::curves::read(&a("curves")).unwrap();
+    assert_eq!(again, curves);
+    assert!(!before.is_empty());
 }
 
 #[test]

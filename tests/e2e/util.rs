@@ -19,14 +19,13 @@ impl Project {
         Self { dir: tempfile::tempdir().unwrap() }
     }
 
-    /// A project with the default dragon-face pipeline and its labels file.
+    /// A project with the default dragon-face pipeline, its labels file and its scripts.
     pub fn dragon_face() -> Self {
         let p = Self::empty();
         p.write("pipeline.toml", &std::fs::read_to_string(repo().join("pipeline.toml")).unwrap());
-        p.write(
-            "datasets/dragon-face/labels.toml",
-            &std::fs::read_to_string(repo().join("datasets/dragon-face/labels.toml")).unwrap(),
-        );
+        for file in ["datasets/dragon-face/labels.toml", "datasets/dragon-face/scripts/demo.toml"] {
+            p.write(file, &std::fs::read_to_string(repo().join(file)).unwrap());
+        }
         p
     }
 
