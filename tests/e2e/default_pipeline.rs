@@ -14,7 +14,13 @@ fn dragon_face_through_label_then_cached_then_one_param_changed() {
     let toml = p.read("pipeline.toml").replace("max_iters = 300", "max_iters = 10").replace("stride = 1", "stride = 5");
     p.write("pipeline.toml", &toml.replace("heldout_every = 10", "heldout_every = 0"));
     let first = p.reprise(&["run"]).ok();
-    assert!(first.contains("ingest") && first.contains("label") && first.contains("ran gplvm") && first.contains("ran synthesize"), "{first}");
+    assert!(
+        first.contains("ingest")
+            && first.contains("label")
+            && first.contains("ran gplvm")
+            && first.contains("ran synthesize"),
+        "{first}"
+    );
     assert!(p.path("artifacts/dragon-face/gplvm_models.parquet").exists());
 
     let frames = Frames::read(&p.path("artifacts/dragon-face/frames.parquet")).unwrap();

@@ -94,7 +94,9 @@ impl Args {
             return cfg("--stride and --max-iters must be at least 1, and there must be at least one start");
         }
         match self.threshold {
-            Threshold::Quantile if !(self.quantile > 0.0 && self.quantile <= 1.0) => cfg("--quantile must be in (0, 1]"),
+            Threshold::Quantile if !(self.quantile > 0.0 && self.quantile <= 1.0) => {
+                cfg("--quantile must be in (0, 1]")
+            }
             Threshold::Rig | Threshold::Mesh if !self.max_distance.is_some_and(|d| d.is_finite() && d >= 0.0) => {
                 cfg("--threshold rig|mesh needs --max-distance >= 0")
             }
@@ -186,7 +188,8 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<PairCount>>> {
             models.len()
         )));
     }
-    let rig = args.controls.as_ref().map(|c| reprise_stagekit::rig::open_rig(&Controls::read(c)?, &controls)).transpose()?;
+    let rig =
+        args.controls.as_ref().map(|c| reprise_stagekit::rig::open_rig(&Controls::read(c)?, &controls)).transpose()?;
     let train: Vec<Vec<f64>> = models.par_iter().map(training_outputs).collect();
     let pairs: Vec<(usize, usize)> =
         (0..models.len()).flat_map(|a| (0..models.len()).filter(move |&b| b != a).map(move |b| (a, b))).collect();
@@ -223,7 +226,8 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<PairCount>>> {
                 Threshold::Mesh => {
                     let max = args.max_distance.unwrap_or(f64::INFINITY);
                     let mesh = mesh_of(&cands)?.unwrap_or_default();
-                    let mut both: Vec<(Candidate, f64)> = cands.into_iter().zip(mesh).filter(|(_, m)| *m <= max).collect();
+                    let mut both: Vec<(Candidate, f64)> =
+                        cands.into_iter().zip(mesh).filter(|(_, m)| *m <= max).collect();
                     both.sort_by(|x, y| x.1.total_cmp(&y.1));
                     let (c, m): (Vec<_>, Vec<_>) = both.into_iter().unzip();
                     (c, Some(m))

@@ -25,7 +25,7 @@
 
 use reprise_numerics::gplvm::LatentModel;
 
-use crate::particle::{step_frame, ParticleParams, State};
+use crate::particle::{step_frame, Leg, ParticleParams, State};
 use crate::path::{graph_path, resample, EdgeCost};
 use crate::random::RandomForce;
 use crate::script::{Command, PathKind, Pose, Script};
@@ -212,12 +212,19 @@ impl<'l, 'a> Run<'l, 'a> {
             }
             return Ok(x.clone());
         }
-        let frame = pose.frame.ok_or_else(|| bad("a pose needs `frame` (with `segment` or `clip`) or `latent`".into()))?;
+        let frame =
+            pose.frame.ok_or_else(|| bad("a pose needs `frame` (with `segment` or `clip`) or `latent`".into()))?;
         self.lib.frames[self.model]
             .iter()
-            .find(|f| f.frame == frame && pose.segment.is_none_or(|s| s == f.segment) && pose.clip.as_ref().is_none_or(|c| c == &f.clip))
+            .find(|f| {
+                f.frame == frame
+                    && pose.segment.is_none_or(|s| s == f.segment)
+                    && pose.clip.as_ref().is_none_or(|c| c == &f.clip)
+            })
             .map(|f| f.x.clone())
-            .ok_or_else(|| bad(format!("no training frame {frame} of segment {:?} / clip {:?}", pose.segment, pose.clip)))
+            .ok_or_else(|| {
+                bad(format!("no training frame {frame} of segment {:?} / clip {:?}", pose.segment, pose.clip))
+            })
     }
 
     fn controls(&self, x: &[f64]) -> Vec<f64> {
@@ -247,7 +254,7 @@ impl<'l, 'a> Run<'l, 'a> {
             }
         };
         let prev = self.target.clone();
-        step_frame(&set.particle, &mut self.state, t0, dt, &prev, next, r, &mut force);
+        step_frame(&set.particle, &mut self.state, Leg { t0, dt, from: &prev, to: next, radius: r }, &mut force);
         self.target = next.to_vec();
         let mut controls = self.controls(&self.state.x);
         if let Some((from, done, total)) = self.blend.take() {
@@ -352,7 +359,11 @@ impl<'l, 'a> Run<'l, 'a> {
                     if done >= total {
                         break;
                     }
-                    let reach = if dist(p, &self.target) > 1e-12 { self.frames_for(self.set.reach_seconds).min(total - done) } else { 0 };
+                    let reach = if dist(p, &self.target) > 1e-12 {
+                        self.frames_for(self.set.reach_seconds).min(total - done)
+                    } else {
+                        0
+                    };
                     self.go(p, reach.max(1), PathKind::Straight, r);
                     done += reach.max(1);
                     let n = per.min(total.saturating_sub(done));
@@ -381,7 +392,10 @@ impl<'l, 'a> Run<'l, 'a> {
                     .filter(|f| segment.is_none_or(|s| s == f.segment) && clip.as_ref().is_none_or(|c| c == &f.clip))
                     .collect();
                 let Some(first) = frames.iter().min_by_key(|f| (f.segment, f.frame)) else {
-                    return Err(SynthError::BadPose { label, what: format!("no segment {segment:?} / clip {clip:?} to play") });
+                    return Err(SynthError::BadPose {
+                        label,
+                        what: format!("no segment {segment:?} / clip {clip:?} to play"),
+                    });
                 };
                 let seg = first.segment;
                 let mut seq: Vec<&TrainingFrame> = frames.iter().copied().filter(|f| f.segment == seg).collect();
@@ -458,7 +472,12 @@ mod tests {
         let eye = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
         let map = RigMap::from_pca(&[0.0; 3], &eye, &[0.0; 3], &[1.0; 3]).unwrap();
         let frames = (0..n)
-            .map(|i| TrainingFrame { segment: (i / 20) as i64, clip: format!("{label}_c{}", i / 20), frame: (i % 20) as i64, x: x[2 * i..2 * i + 2].to_vec() })
+            .map(|i| TrainingFrame {
+                segment: (i / 20) as i64,
+                clip: format!("{label}_c{}", i / 20),
+                frame: (i % 20) as i64,
+                x: x[2 * i..2 * i + 2].to_vec(),
+            })
             .collect();
         (LatentModel::new(label.into(), pred, vec![0.0; 3], map).unwrap(), frames)
     }
@@ -522,7 +541,11 @@ mod tests {
             let out = run(lib, &script(cmds, 2), &Settings::default()).unwrap();
             let sw = out.iter().position(|f| f.model == 1).expect("switched");
             assert!(out[..sw].iter().all(|f| f.model == 0) && out[sw..].iter().all(|f| f.model == 1));
-            assert!(dist(&out[sw - 1].x, &[0.8, 1.27]) < 2.0 * Settings::default().tight_radius, "switches at the bridge: {:?}", out[sw - 1].x);
+            assert!(
+                dist(&out[sw - 1].x, &[0.8, 1.27]) < 2.0 * Settings::default().tight_radius,
+                "switches at the bridge: {:?}",
+                out[sw - 1].x
+            );
             let step = |i: usize| dist(&out[i].controls, &out[i - 1].controls);
             let across = (sw..sw + 12).map(step).fold(0.0, f64::max);
             // Without the blend the switch would jump by the offset between the models (≈0.7).
@@ -561,7 +584,7 @@ mod tests {
             let mut want = vec![0.0; 3];
             let mut worst: f64 = 0.0;
             for (f, t) in played.iter().zip(&seg[1..]) {
-                m.controls_into(&t.x, &mut vec![0.0; 3], &mut want);
+                m.controls_into(&t.x, &mut [0.0; 3], &mut want);
                 worst = worst.max(dist(&f.controls, &want));
             }
             assert!(worst < 0.1, "worst control error {worst}");

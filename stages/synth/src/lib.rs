@@ -4,8 +4,8 @@
 //! PLAY commands into per-frame latent points and rig controls ([`engine`], [`script`]).
 #![warn(missing_docs)]
 
-pub mod path;
+pub mod engine;
 pub mod particle;
+pub mod path;
 pub mod random;
 pub mod script;
-pub mod engine;

@@ -101,18 +101,29 @@ pub fn multiplier(params: &ParticleParams, g: &[f64], rel_v: &[f64], force: &[f6
     }
 }
 
-/// Advances `state` over one frame from `t0` to `t0 + dt` while the path moves linearly
-/// from `p0` to `p1`, with radius `r` and the external force `force(x, v, t, out)`.
+/// One frame of the path: from `from` at `t0` linearly to `to` at `t0 + dt`, radius `radius`.
+#[derive(Debug, Clone, Copy)]
+pub struct Leg<'a> {
+    /// Start time (s).
+    pub t0: f64,
+    /// Frame length (s).
+    pub dt: f64,
+    /// Path point at `t0`.
+    pub from: &'a [f64],
+    /// Path point at `t0 + dt`.
+    pub to: &'a [f64],
+    /// Radius $r$.
+    pub radius: f64,
+}
+
+/// Advances `state` over one frame `leg` under the external force `force(x, v, t, out)`.
 pub fn step_frame(
     params: &ParticleParams,
     state: &mut State,
-    t0: f64,
-    dt: f64,
-    p0: &[f64],
-    p1: &[f64],
-    r: f64,
+    leg: Leg<'_>,
     force: &mut impl FnMut(&[f64], &[f64], f64, &mut [f64]),
 ) {
+    let Leg { t0, dt, from: p0, to: p1, radius: r } = leg;
     let q = state.x.len();
     let pdot: Vec<f64> = p0.iter().zip(p1).map(|(a, b)| (b - a) / dt).collect();
     let steps = params.substeps.max(1).max((2.0 * params.omega0 * dt).ceil() as usize);
@@ -179,7 +190,7 @@ mod tests {
         let zero = [0.0, 0.0];
         let mut none = |_: &[f64], _: &[f64], _: f64, o: &mut [f64]| o.fill(0.0);
         for i in 0..(seconds / dt).round() as usize {
-            step_frame(params, &mut s, i as f64 * dt, dt, &zero, &zero, r, &mut none);
+            step_frame(params, &mut s, Leg { t0: i as f64 * dt, dt, from: &zero, to: &zero, radius: r }, &mut none);
             ds.push(dist(&s));
         }
         (s, ds)

@@ -27,12 +27,7 @@ fn dist(a: &[f64], b: &[f64]) -> f64 {
 
 /// The index of the training point (row-major `N × q`) nearest `x`.
 pub fn nearest(points: &[f64], q: usize, x: &[f64]) -> usize {
-    points
-        .chunks_exact(q)
-        .map(|p| dist(p, x))
-        .enumerate()
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map_or(0, |(i, _)| i)
+    points.chunks_exact(q).map(|p| dist(p, x)).enumerate().min_by(|a, b| a.1.total_cmp(&b.1)).map_or(0, |(i, _)| i)
 }
 
 #[derive(PartialEq)]

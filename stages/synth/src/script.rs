@@ -33,7 +33,6 @@
 
 use serde::Deserialize;
 
-
 /// A pose in the current label.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -185,16 +184,17 @@ impl Script {
 
     fn validate(&self) -> Result<(), String> {
         let s = self;
+        let pos = |v: f64| v > 0.0 && v.is_finite();
         for (i, c) in s.commands.iter().enumerate() {
             let bad = |what: &str| Err(format!("command {} ({c:?}): {what}", i + 1));
             match c {
                 Command::Idle { duration, radius, hover, .. } => {
-                    if !(*duration > 0.0) || radius.is_some_and(|r| !(r > 0.0)) || hover.is_some_and(|h| !(h > 0.0)) {
+                    if !pos(*duration) || radius.is_some_and(|r| !pos(r)) || hover.is_some_and(|h| !pos(h)) {
                         return bad("duration, radius and hover must be positive");
                     }
                 }
                 Command::Move { duration, radius, .. } => {
-                    if !(*duration > 0.0) || radius.is_some_and(|r| !(r > 0.0)) {
+                    if !pos(*duration) || radius.is_some_and(|r| !pos(r)) {
                         return bad("duration and radius must be positive");
                     }
                 }

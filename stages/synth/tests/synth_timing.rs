@@ -17,7 +17,9 @@ fn cost_per_frame() {
             [t.cos() * 1.5, (2.0 * t).sin(), (0.5 * t).cos()]
         })
         .collect();
-    let y: Vec<f64> = (0..n * d).map(|i| ((i * 37 % 101) as f64 / 50.0 - 1.0) * 0.1 + (x[(i / d) * q] * (i % d) as f64).sin()).collect();
+    let y: Vec<f64> = (0..n * d)
+        .map(|i| ((i * 37 % 101) as f64 / 50.0 - 1.0) * 0.1 + (x[(i / d) * q] * (i % d) as f64).sin())
+        .collect();
     let hyper = Hyper { rbf_variance: 1.0, lengthscale: 0.5, white_variance: 1e-2 };
     let pred = Predictor::new(&x, &y, d, hyper, &LikelihoodConfig::default()).unwrap();
     let dirs: Vec<f64> = (0..d * c).map(|i| ((i * 7919 % 1000) as f64 / 1000.0 - 0.5) * 0.1).collect();

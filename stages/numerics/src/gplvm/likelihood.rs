@@ -232,7 +232,8 @@ impl Likelihood {
             krbf: self.krbf.as_ref(),
             q,
             half_d,
-        });        let ell2 = hyper.lengthscale * hyper.lengthscale;
+        });
+        let ell2 = hyper.lengthscale * hyper.lengthscale;
         let scale = -2.0 / ell2;
         for i in 0..n {
             for kk in 0..q {

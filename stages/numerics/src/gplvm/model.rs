@@ -59,9 +59,7 @@ impl RigMap {
             (0..d * c).map(|i| if weight[i % c] == 0.0 { 0.0 } else { directions[i] / weight[i % c] }).collect();
         let analysis: Vec<f64> = (0..d * c).map(|i| directions[i] * weight[i % c]).collect();
         let analysis_offset = (0..d)
-            .map(|k| {
-                (0..c).map(|j| directions[k * c + j] * (mean_p[j] - weight[j] * mean_p[j] - mean_z[j])).sum()
-            })
+            .map(|k| (0..c).map(|j| directions[k * c + j] * (mean_p[j] - weight[j] * mean_p[j] - mean_z[j])).sum())
             .collect();
         Ok(Self { d, base, basis, analysis, analysis_offset, weight: weight.to_vec() })
     }
