@@ -1,4 +1,4 @@
-//! The RobotExpressive pipeline (`datasets/robot-expressive/`) end to end through gplvm,
+//! The RobotExpressive pipeline (`datasets/robot-expressive/`) end to end through synthesis and glTF export,
 //! on the real glTF character read in place from `../shared`.
 
 use reprise_artifact::controls::{Controls, RigRef};
@@ -20,6 +20,10 @@ fn robot_expressive_through_gplvm() {
         .replace("max_iters = 300", "max_iters = 20");
     p.write("pipeline.toml", &toml);
     p.write("labels.toml", &std::fs::read_to_string(repo().join("datasets/robot-expressive/labels.toml")).unwrap());
+    p.write(
+        "scripts/demo.toml",
+        &std::fs::read_to_string(repo().join("datasets/robot-expressive/scripts/demo.toml")).unwrap(),
+    );
     p.reprise(&["run"]).ok();
     let controls = Controls::read(&p.path("artifacts/robot-expressive/controls.parquet")).unwrap();
     assert!(matches!(controls.rig, RigRef::Gltf { .. }));
@@ -37,6 +41,32 @@ fn robot_expressive_through_gplvm() {
     )
     .unwrap();
     assert_eq!(gplvm.models.len(), 7);
+
+    // The synthesized scripts, exported into a copy of the character, re-ingest to the
+    // same poses: the same mesh to Float32 precision (a rotation vector may come back as
+    // an equivalent one, 2π apart).
+    let curves = reprise_artifact::curves::read(&p.path("artifacts/robot-expressive/curves.parquet")).unwrap();
+    let exported =
+        reprise_gltf::ingest(&p.path("artifacts/robot-expressive/RobotExpressive_reprise.glb"), 24.0).unwrap();
+    assert_eq!(exported.clips.len(), 14 + 2);
+    let rig = reprise_gltf::GltfRig::open(&glb).unwrap();
+    assert_eq!(rig.control_names(), exported.controls.iter().map(|c| c.name.clone()).collect::<Vec<_>>());
+    let n = curves.controls.len();
+    for script in ["greeting", "no_then_yes"] {
+        let clip = exported.clip(&format!("reprise_{script}")).unwrap();
+        let rows: Vec<usize> = (0..curves.script.len()).filter(|&r| curves.script[r] == script).collect();
+        assert_eq!(clip.frames, rows.len(), "{script}");
+        let mut worst: f64 = 0.0;
+        for (f, &r) in rows.iter().enumerate() {
+            let mut pose = rig.default_controls();
+            for (c, name) in curves.controls.iter().enumerate() {
+                pose[exported.control_index(name).unwrap()] = curves.values[r * n + c];
+            }
+            let (a, b) = (rig.evaluate_to_vec(&pose), rig.evaluate_to_vec(exported.frame(clip, f)));
+            worst = worst.max(a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max));
+        }
+        assert!(worst < 1e-4, "{script}: largest vertex difference after export and re-ingest {worst}");
+    }
     // The character file is the rig: a file whose content differs from what ingest read
     // is refused, not silently evaluated.
     let RigRef::Gltf { path, .. } = &controls.rig else { unreachable!() };

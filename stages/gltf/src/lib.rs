@@ -1,6 +1,7 @@
 //! glTF 2.0 characters for reprise: every animation as a clip of rig-control curves
 //! ([`ingest`]), and the character as a rig evaluator from controls to mesh vertices
-//! ([`GltfRig`]).
+//! ([`GltfRig`]), and clips of curves written back into a copy of the file as new
+//! animations ([`export`]).
 //!
 //! Conventions (all public items follow them):
 //! * Rotation controls `<node>.rx/.ry/.rz` are a rotation vector `v` (axis · angle, radians)
@@ -18,6 +19,7 @@
 mod channels;
 pub mod controls;
 mod error;
+mod export;
 mod ingest;
 mod load;
 mod mesh;
@@ -28,6 +30,7 @@ pub mod scene;
 
 pub use controls::ControlInfo;
 pub use error::GltfError;
+pub use export::{export, ExportClip};
 pub use ingest::{ingest, ClipCurves, GltfCurves};
 pub use rig::GltfRig;
 pub use scene::{NodeInfo, SceneGraph};

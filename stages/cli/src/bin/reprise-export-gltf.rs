@@ -1,0 +1,14 @@
+//! `reprise-export-gltf`: see `reprise_export` for what it does.
+use clap::Parser;
+
+fn main() {
+    let args = reprise_export::Args::parse();
+    reprise_stagekit::main("reprise-export-gltf", || {
+        if let Some(clips) = reprise_export::run(&args)? {
+            for (name, frames) in &clips {
+                eprintln!("exported animation `{name}` ({frames} frames) into {}", args.glb.display());
+            }
+        }
+        Ok(())
+    });
+}
