@@ -74,11 +74,11 @@ fn split_glb(path: &Path, bytes: &[u8]) -> Result<(Value, Vec<u8>), GltfError> {
 /// The GLB bytes of `json` and `bin`.
 fn join_glb(json: &Value, bin: &[u8]) -> Vec<u8> {
     let mut j = serde_json::to_vec(json).expect("JSON serialises");
-    while j.len() % 4 != 0 {
+    while !j.len().is_multiple_of(4) {
         j.push(b' ');
     }
     let mut b = bin.to_vec();
-    while b.len() % 4 != 0 {
+    while !b.len().is_multiple_of(4) {
         b.push(0);
     }
     let total = 12 + 8 + j.len() + 8 + b.len();
@@ -95,7 +95,7 @@ fn join_glb(json: &Value, bin: &[u8]) -> Vec<u8> {
 
 /// Appends Float32 data as a buffer view and an accessor; returns the accessor index.
 fn push_accessor(json: &mut Value, bin: &mut Vec<u8>, data: &[f32], kind: &str, count: usize, bounds: bool) -> usize {
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let offset = bin.len();
@@ -138,7 +138,8 @@ pub fn export(src: &Path, dst: &Path, clips: &[ExportClip]) -> Result<(), GltfEr
             return Err(bad(format!("the file already has an animation named `{}`", clip.name)));
         }
         let c = clip.controls.len();
-        if c == 0 || clip.values.len() % c != 0 || clip.values.is_empty() || !(clip.fps > 0.0) {
+        let fps_ok = clip.fps.is_finite() && clip.fps > 0.0;
+        if c == 0 || !clip.values.len().is_multiple_of(c) || clip.values.is_empty() || !fps_ok {
             return Err(bad(format!("clip `{}`: no frames, or values not frames × controls", clip.name)));
         }
         let frames = clip.values.len() / c;
@@ -194,7 +195,7 @@ pub fn export(src: &Path, dst: &Path, clips: &[ExportClip]) -> Result<(), GltfEr
             "name": clip.name, "samplers": samplers, "channels": channels
         }));
     }
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     json["buffers"][0]["byteLength"] = json!(bin.len());
