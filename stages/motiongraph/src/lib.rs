@@ -1,0 +1,294 @@
+//! The Motion Graphs baseline of Kovar, Gleicher & Pighin (2002), adapted to rig space as
+//! the paper's comparison did (`../shared/method.md` §5.6).
+//!
+//! - **Motions** are the labeled segments; a frame's pose is its scaled control vector $z$.
+//! - **Windowed distance** ([`window_distances`]): for frames $A_i$ and $B_j$,
+//!   $D(i,j) = \sum_{p=0}^{k-1}\lVert z^A_{i+p} - z^B_{j-k+1+p}\rVert^2$ — the window on $A$
+//!   starts at $A_i$, the one on $B$ ends at $B_j$, so it measures exactly the frames a
+//!   transition blends. Frame distances come from one matrix product
+//!   ($\lVert a-b\rVert^2 = \lVert a\rVert^2 + \lVert b\rVert^2 - 2a^\top b$), windows from sums along
+//!   diagonals: $O(N_AN_BP)$ in all.
+//! - **Candidates** ([`local_minima`]): $D$ strictly smaller than every other value in its
+//!   $(2\rho+1)^2$ neighbourhood; trivial self-transitions (same motion, $|j - (i+k-1)| < k$)
+//!   excluded.
+//! - **Transition** $A_i \to B_{j+1}$: the $k$ frames $\alpha(p)z^A_{i+p} + (1-\alpha(p))z^B_{j-k+1+p}$,
+//!   $\alpha(p) = 2(\frac{p+1}k)^3 - 3(\frac{p+1}k)^2 + 1$ ([`blend_weight`]), then playback
+//!   continues at $B_{j+1}$.
+//! - **Graph** ([`Graph`]): one node per frame; an edge to the next frame of its motion
+//!   (cost 1 frame) and one per transition (cost $k$ frames, leaving at $A_i$ and arriving at
+//!   $B_{j+1}$); pruned to the largest strongly connected component ([`largest_scc`],
+//!   Tarjan); searched by Dijkstra for the fewest frames to any frame of a target set
+//!   ([`Graph::shortest_to`]).
+#![warn(missing_docs)]
+
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// $\alpha(p)$ for a blend of $k$ frames: 1 at $p = -1$, 0 at $p = k - 1$ (the last blended
+/// frame is all $B$), zero slope at both, $\alpha(p) + \alpha(k-2-p) = 1$. method.md §5.7
+/// writes the end as $\alpha(k) = 0$; with its own formula that holds at $p = k - 1$.
+pub fn blend_weight(p: f64, k: usize) -> f64 {
+    let s = (p + 1.0) / k as f64;
+    2.0 * s * s * s - 3.0 * s * s + 1.0
+}
+
+/// $D(i,j)$ for motions `a` (`na × dim`, row-major) and `b` (`nb × dim`) with window
+/// `k`, row-major `na × nb`; entries whose windows leave either motion ($i + k > n_a$ or
+/// $j + 1 < k$) are `+∞`.
+pub fn window_distances(a: &[f64], b: &[f64], dim: usize, k: usize) -> Vec<f64> {
+    let (na, nb) = (a.len() / dim, b.len() / dim);
+    let am = faer::Mat::<f64>::from_fn(na, dim, |i, c| a[i * dim + c]);
+    let bm = faer::Mat::<f64>::from_fn(nb, dim, |i, c| b[i * dim + c]);
+    let mut g = faer::Mat::<f64>::zeros(na, nb);
+    faer::linalg::matmul::matmul(g.as_mut(), faer::Accum::Replace, am.as_ref(), bm.transpose(), 1.0, faer::Par::Seq);
+    let sq = |m: &[f64], i: usize| m[i * dim..(i + 1) * dim].iter().map(|v| v * v).sum::<f64>();
+    let (an, bn): (Vec<f64>, Vec<f64>) = ((0..na).map(|i| sq(a, i)).collect(), (0..nb).map(|j| sq(b, j)).collect());
+    let d = |i: usize, j: usize| (an[i] + bn[j] - 2.0 * g[(i, j)]).max(0.0);
+    let mut out = vec![f64::INFINITY; na * nb];
+    if k == 0 || k > na || k > nb {
+        return out;
+    }
+    // Along each diagonal (i + p, j − k + 1 + p): a sliding sum of k frame distances.
+    for i in 0..=na - k {
+        for j in k - 1..nb {
+            // D(i, j) = D(i − 1, j − 1) − d(i − 1, j − k) + d(i + k − 1, j): reuse when possible.
+            let v = if i > 0 && j >= k && out[(i - 1) * nb + (j - 1)].is_finite() {
+                out[(i - 1) * nb + (j - 1)] - d(i - 1, j - k) + d(i + k - 1, j)
+            } else {
+                (0..k).map(|p| d(i + p, j + 1 + p - k)).sum()
+            };
+            out[i * nb + j] = v.max(0.0);
+        }
+    }
+    out
+}
+
+/// The strict local minima of a row-major `rows × cols` surface within radius `rho` (finite
+/// values only), as `(i, j, value)`; `exclude(i, j)` removes candidates.
+pub fn local_minima(
+    d: &[f64],
+    rows: usize,
+    cols: usize,
+    rho: usize,
+    exclude: impl Fn(usize, usize) -> bool,
+) -> Vec<(usize, usize, f64)> {
+    let mut out = Vec::new();
+    for i in 0..rows {
+        for j in 0..cols {
+            let v = d[i * cols + j];
+            if !v.is_finite() || exclude(i, j) {
+                continue;
+            }
+            let is_min = (i.saturating_sub(rho)..(i + rho + 1).min(rows)).all(|a| {
+                (j.saturating_sub(rho)..(j + rho + 1).min(cols)).all(|b| (a == i && b == j) || d[a * cols + b] > v)
+            });
+            if is_min {
+                out.push((i, j, v));
+            }
+        }
+    }
+    out
+}
+
+/// A directed graph with integer edge costs over nodes `0..n`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Graph {
+    /// Adjacency: per node, (target, cost, edge id).
+    pub adj: Vec<Vec<(usize, u32, usize)>>,
+}
+
+impl Graph {
+    /// `n` nodes, no edges.
+    pub fn new(n: usize) -> Self {
+        Self { adj: vec![Vec::new(); n] }
+    }
+
+    /// Adds edge `id` from `a` to `b` costing `cost`.
+    pub fn add(&mut self, a: usize, b: usize, cost: u32, id: usize) {
+        self.adj[a].push((b, cost, id));
+    }
+
+    /// The cheapest path from `start` to any node with `target(node)`, within the nodes
+    /// `alive`: (total cost, the edge ids in order), or `None` if unreachable.
+    pub fn shortest_to(&self, start: usize, alive: &[bool], target: impl Fn(usize) -> bool) -> Option<(u32, Vec<usize>)> {
+        #[derive(PartialEq, Eq)]
+        struct Item(u32, usize);
+        impl Ord for Item {
+            fn cmp(&self, o: &Self) -> Ordering {
+                o.0.cmp(&self.0).then(o.1.cmp(&self.1))
+            }
+        }
+        impl PartialOrd for Item {
+            fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+                Some(self.cmp(o))
+            }
+        }
+        let n = self.adj.len();
+        if start >= n || !alive[start] {
+            return None;
+        }
+        let mut best = vec![u32::MAX; n];
+        let mut via: Vec<Option<(usize, usize)>> = vec![None; n];
+        let mut heap = BinaryHeap::from([Item(0, start)]);
+        best[start] = 0;
+        while let Some(Item(c, v)) = heap.pop() {
+            if c > best[v] {
+                continue;
+            }
+            if v != start && target(v) {
+                let mut edges = Vec::new();
+                let mut at = v;
+                while let Some((prev, e)) = via[at] {
+                    edges.push(e);
+                    at = prev;
+                }
+                edges.reverse();
+                return Some((c, edges));
+            }
+            for &(w, cost, e) in &self.adj[v] {
+                if alive[w] && c + cost < best[w] {
+                    best[w] = c + cost;
+                    via[w] = Some((v, e));
+                    heap.push(Item(c + cost, w));
+                }
+            }
+        }
+        None
+    }
+}
+
+/// Membership of the largest strongly connected component (Tarjan's algorithm,
+/// iterative); ties go to the component found first.
+pub fn largest_scc(g: &Graph) -> Vec<bool> {
+    let n = g.adj.len();
+    let (mut index, mut low, mut on) = (vec![usize::MAX; n], vec![0usize; n], vec![false; n]);
+    let (mut stack, mut comp) = (Vec::new(), vec![usize::MAX; n]);
+    let (mut next, mut ncomp) = (0, 0);
+    let mut sizes = Vec::new();
+    for root in 0..n {
+        if index[root] != usize::MAX {
+            continue;
+        }
+        let mut call: Vec<(usize, usize)> = vec![(root, 0)];
+        index[root] = next;
+        low[root] = next;
+        next += 1;
+        stack.push(root);
+        on[root] = true;
+        while let Some(&mut (v, ref mut ei)) = call.last_mut() {
+            if let Some(&(w, _, _)) = g.adj[v].get(*ei) {
+                *ei += 1;
+                if index[w] == usize::MAX {
+                    index[w] = next;
+                    low[w] = next;
+                    next += 1;
+                    stack.push(w);
+                    on[w] = true;
+                    call.push((w, 0));
+                } else if on[w] {
+                    low[v] = low[v].min(index[w]);
+                }
+            } else {
+                call.pop();
+                if let Some(&(u, _)) = call.last() {
+                    low[u] = low[u].min(low[v]);
+                }
+                if low[v] == index[v] {
+                    let mut size = 0;
+                    while let Some(w) = stack.pop() {
+                        on[w] = false;
+                        comp[w] = ncomp;
+                        size += 1;
+                        if w == v {
+                            break;
+                        }
+                    }
+                    sizes.push(size);
+                    ncomp += 1;
+                }
+            }
+        }
+    }
+    let best = (0..ncomp).max_by_key(|&c| (sizes[c], std::cmp::Reverse(c))).unwrap_or(0);
+    comp.iter().map(|&c| c == best && ncomp > 0).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// method.md §5.7 (c): α(−1) = 1, α(k − 1) = 0 (the oracle's "α(k)" is off by one for
+    /// its own formula), zero slopes there, point symmetry.
+    #[test]
+    fn blend_weights_have_the_properties() {
+        let k = 12;
+        assert!((blend_weight(-1.0, k) - 1.0).abs() < 1e-15 && blend_weight((k - 1) as f64, k).abs() < 1e-15);
+        let h = 1e-6;
+        for p in [-1.0, (k - 1) as f64] {
+            let slope = (blend_weight(p + h, k) - blend_weight(p - h, k)) / (2.0 * h);
+            assert!(slope.abs() < 1e-9, "{slope}");
+        }
+        for p in 0..k {
+            let s = blend_weight(p as f64, k) + blend_weight(k as f64 - 2.0 - p as f64, k);
+            assert!((s - 1.0).abs() < 1e-12);
+        }
+    }
+
+    /// The sliding recurrence equals brute force; a motion against itself is 0 where the
+    /// windows coincide (j = i + k − 1).
+    #[test]
+    fn window_distances_match_brute_force() {
+        let dim = 3;
+        let a: Vec<f64> = (0..20 * dim).map(|i| ((i * 37) % 11) as f64 * 0.3).collect();
+        let b: Vec<f64> = (0..15 * dim).map(|i| ((i * 53) % 7) as f64 * 0.5).collect();
+        let k = 4;
+        let d = window_distances(&a, &b, dim, k);
+        let fd = |x: &[f64], i: usize, y: &[f64], j: usize| -> f64 {
+            (0..dim).map(|c| (x[i * dim + c] - y[j * dim + c]).powi(2)).sum()
+        };
+        for i in 0..=20 - k {
+            for j in k - 1..15 {
+                let want: f64 = (0..k).map(|p| fd(&a, i + p, &b, j + 1 + p - k)).sum();
+                assert!((d[i * 15 + j] - want).abs() < 1e-9 * want.max(1.0), "({i},{j})");
+            }
+        }
+        assert!(d[19 * 15].is_infinite() && d[0].is_infinite());
+        let s = window_distances(&a, &a, dim, k);
+        for i in 0..=20 - k {
+            assert!(s[i * 20 + i + k - 1] < 1e-9);
+        }
+    }
+
+    /// Local minima: the two dips of a surface, not its slopes; exclusions respected.
+    #[test]
+    fn local_minima_find_the_dips() {
+        let (r, c) = (6, 7);
+        let d: Vec<f64> = (0..r * c)
+            .map(|x| {
+                let (i, j) = ((x / c) as f64, (x % c) as f64);
+                ((i - 1.0).powi(2) + (j - 1.0).powi(2)).min((i - 4.0).powi(2) + (j - 5.0).powi(2) + 0.5)
+            })
+            .collect();
+        let m = local_minima(&d, r, c, 1, |_, _| false);
+        assert_eq!(m.iter().map(|&(i, j, _)| (i, j)).collect::<Vec<_>>(), vec![(1, 1), (4, 5)]);
+        let m = local_minima(&d, r, c, 1, |i, _| i == 1);
+        assert_eq!(m.len(), 1);
+    }
+
+    /// method.md §5.7 (e): a cycle with a dangling tail keeps the cycle; search finds the
+    /// cheapest path and respects pruning.
+    #[test]
+    fn scc_keeps_the_cycle_and_search_is_shortest() {
+        let mut g = Graph::new(6);
+        // Cycle 0 → 1 → 2 → 3 → 0, tail 3 → 4 → 5.
+        for (e, (a, b, c)) in [(0, 1, 1), (1, 2, 1), (2, 3, 1), (3, 0, 1), (3, 4, 1), (4, 5, 1), (0, 2, 5)].iter().enumerate() {
+            g.add(*a, *b, *c, e);
+        }
+        let alive = largest_scc(&g);
+        assert_eq!(alive, vec![true, true, true, true, false, false]);
+        let (cost, path) = g.shortest_to(0, &alive, |v| v == 2).unwrap();
+        assert_eq!((cost, path), (2, vec![0, 1]));
+        assert!(g.shortest_to(0, &alive, |v| v == 5).is_none());
+        assert!(g.shortest_to(0, &[true; 6], |v| v == 5).is_some());
+    }
+}
