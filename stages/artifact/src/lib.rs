@@ -13,6 +13,7 @@
 //! | `gplvm_latents`, `gplvm_models`, `gplvm_trace`, `gplvm_fits` | [`gplvm`] | gplvm | bridges, synthesize, evaluate |
 //! | `bridges` | [`bridges`] | bridges | synthesize, evaluate |
 //! | `curves` | [`curves`] | synthesize | evaluate, glTF export |
+//! | `mg_nodes`, `mg_edges` | [`motion_graph`] | motion-graph | evaluate |
 //!
 //! Every file carries provenance ([`provenance`]) in its Parquet key-value metadata and
 //! is written atomically ([`table::write_atomic`]).
@@ -28,11 +29,12 @@ mod kinds {
     pub mod curves;
     pub mod frames;
     pub mod gplvm;
+    pub mod motion_graph;
     pub mod pca;
     pub mod scales;
     pub mod segments;
 }
-pub use kinds::{bridges, clips, controls, curves, frames, gplvm, pca, scales, segments};
+pub use kinds::{bridges, clips, controls, curves, frames, gplvm, motion_graph, pca, scales, segments};
 
 pub use error::{ArtifactError, Result};
 pub use provenance::Provenance;

@@ -110,7 +110,12 @@ impl Graph {
 
     /// The cheapest path from `start` to any node with `target(node)`, within the nodes
     /// `alive`: (total cost, the edge ids in order), or `None` if unreachable.
-    pub fn shortest_to(&self, start: usize, alive: &[bool], target: impl Fn(usize) -> bool) -> Option<(u32, Vec<usize>)> {
+    pub fn shortest_to(
+        &self,
+        start: usize,
+        alive: &[bool],
+        target: impl Fn(usize) -> bool,
+    ) -> Option<(u32, Vec<usize>)> {
         #[derive(PartialEq, Eq)]
         struct Item(u32, usize);
         impl Ord for Item {
@@ -281,7 +286,9 @@ mod tests {
     fn scc_keeps_the_cycle_and_search_is_shortest() {
         let mut g = Graph::new(6);
         // Cycle 0 → 1 → 2 → 3 → 0, tail 3 → 4 → 5.
-        for (e, (a, b, c)) in [(0, 1, 1), (1, 2, 1), (2, 3, 1), (3, 0, 1), (3, 4, 1), (4, 5, 1), (0, 2, 5)].iter().enumerate() {
+        for (e, (a, b, c)) in
+            [(0, 1, 1), (1, 2, 1), (2, 3, 1), (3, 0, 1), (3, 4, 1), (4, 5, 1), (0, 2, 5)].iter().enumerate()
+        {
             g.add(*a, *b, *c, e);
         }
         let alive = largest_scc(&g);

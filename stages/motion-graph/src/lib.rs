@@ -1,0 +1,225 @@
+//! The motion-graph stage: the Motion Graphs baseline ([`reprise_motiongraph`]) on the
+//! labeled frames. A frame's pose is its scaled control vector $z_c = \bar w_c p_c$ with
+//! $\bar w_c$ the control's scale-stage weight averaged over the labels that use it (one
+//! metric for the whole graph: mesh length per control unit); masked controls are absent.
+//! Every ordered pair of segments (the same one included) is compared with window
+//! $k$ = `window` frames (the synthesis blend length, default 12); local minima within
+//! `rho` below the threshold become transitions; the graph is pruned to its largest
+//! strongly connected component.
+
+use std::path::PathBuf;
+
+use clap::{Parser, ValueEnum};
+use rayon::prelude::*;
+use reprise_artifact::frames::LabeledFrames;
+use reprise_artifact::motion_graph::{self, Edge, Nodes};
+use reprise_artifact::scales;
+use reprise_motiongraph::{largest_scc, local_minima, window_distances, Graph};
+use reprise_stagekit::{StageError, StageResult};
+use serde::Serialize;
+
+/// How transition candidates are kept.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Threshold {
+    /// The `--quantile` lowest of all local minima.
+    Quantile,
+    /// Windowed distance at most `--max-distance`.
+    Absolute,
+}
+
+/// `reprise-motion-graph`: the Motion Graphs baseline.
+#[derive(Debug, Clone, Parser, Serialize)]
+#[command(name = "reprise-motion-graph", version, about)]
+pub struct Args {
+    /// Input: the labeled frames.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub labeled_frames: PathBuf,
+    /// Input: the scales.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub scales: PathBuf,
+    /// Output: the nodes.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub nodes: PathBuf,
+    /// Output: the edges.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub edges: PathBuf,
+    /// Window and blend length k, frames.
+    #[arg(long, default_value_t = 12)]
+    pub window: usize,
+    /// Local-minimum neighbourhood radius ρ.
+    #[arg(long, default_value_t = 2)]
+    pub rho: usize,
+    /// Which threshold keeps a local minimum.
+    #[arg(long, value_enum, default_value_t = Threshold::Quantile)]
+    pub threshold: Threshold,
+    /// With `quantile`: the share of local minima kept.
+    #[arg(long, default_value_t = 0.1)]
+    pub quantile: f64,
+    /// With `absolute`: the largest windowed distance kept.
+    #[arg(long)]
+    pub max_distance: Option<f64>,
+    /// Only validate the flags and exit.
+    #[arg(long)]
+    #[serde(skip)]
+    pub check: bool,
+}
+
+/// What the stage built.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Summary {
+    /// Frames (nodes).
+    pub frames: usize,
+    /// Frames in the largest SCC.
+    pub frames_in_scc: usize,
+    /// Local minima found, and kept as transitions.
+    pub minima: usize,
+    /// Transitions kept.
+    pub transitions: usize,
+    /// Per label: (label, frames, frames in the SCC).
+    pub per_label: Vec<(String, usize, usize)>,
+    /// The distance threshold used.
+    pub threshold: f64,
+}
+
+/// Runs the stage (or only validates, with `--check`).
+pub fn run(args: &Args) -> StageResult<Option<Summary>> {
+    let bad_threshold = match args.threshold {
+        Threshold::Quantile => !(args.quantile > 0.0 && args.quantile <= 1.0),
+        Threshold::Absolute => !args.max_distance.is_some_and(|d| d >= 0.0),
+    };
+    if args.window < 2 || bad_threshold {
+        return Err(StageError::Config(
+            "need --window >= 2, and 0 < --quantile <= 1 (quantile) or --max-distance >= 0 (absolute)".into(),
+        ));
+    }
+    if args.check {
+        return Ok(None);
+    }
+    let provenance = reprise_stagekit::provenance("motion-graph", env!("CARGO_PKG_VERSION"), args)
+        .with_input("labeled_frames", &args.labeled_frames)?
+        .with_input("scales", &args.scales)?;
+    let labeled = LabeledFrames::read(&args.labeled_frames)?;
+    let scale_rows = scales::read(&args.scales)?;
+    let controls = &labeled.frames.controls;
+    let weight: Vec<f64> = controls
+        .iter()
+        .map(|c| {
+            let used: Vec<f64> = scale_rows.iter().filter(|s| &s.control == c && s.used).map(|s| s.weight).collect();
+            if used.is_empty() {
+                0.0
+            } else {
+                used.iter().sum::<f64>() / used.len() as f64
+            }
+        })
+        .collect();
+    let dim = controls.len();
+    let n = labeled.frames.rows();
+    // Segments as runs of rows (labeled frames are in segment order, frames ascending).
+    let mut segs: Vec<(usize, usize)> = Vec::new();
+    for r in 0..n {
+        match segs.last_mut() {
+            Some((s, e))
+                if labeled.segment_id[*s] == labeled.segment_id[r]
+                    && labeled.frames.frame[r] == labeled.frames.frame[r - 1] + 1 =>
+            {
+                *e = r + 1
+            }
+            _ => segs.push((r, r + 1)),
+        }
+    }
+    let z: Vec<f64> = (0..n)
+        .flat_map(|r| labeled.frames.row(r).iter().zip(&weight).map(|(p, w)| p * w).collect::<Vec<_>>())
+        .collect();
+    let k = args.window;
+    let pairs: Vec<(usize, usize)> = (0..segs.len()).flat_map(|a| (0..segs.len()).map(move |b| (a, b))).collect();
+    let bar = reprise_stagekit::progress(pairs.len() as u64, "motion-graph");
+    // Local minima per segment pair: (from row A_i, to row B_{j+1}, D).
+    let minima: Vec<(usize, usize, f64)> = pairs
+        .par_iter()
+        .flat_map_iter(|&(a, b)| {
+            let ((sa, ea), (sb, eb)) = (segs[a], segs[b]);
+            let d = window_distances(&z[sa * dim..ea * dim], &z[sb * dim..eb * dim], dim, k);
+            let (na, nb) = (ea - sa, eb - sb);
+            // Trivial self-transitions: the same segment, arriving within k of where the
+            // windows coincide (j = i + k − 1).
+            let same = a == b;
+            let m = local_minima(&d, na, nb, args.rho, |i, j| same && (j as i64 - (i + k - 1) as i64).abs() < k as i64);
+            bar.inc(1);
+            m.into_iter().filter(move |&(_, j, _)| j + 1 < nb).map(move |(i, j, v)| (sa + i, sb + j + 1, v))
+        })
+        .collect();
+    bar.finish_and_clear();
+    let threshold = match args.threshold {
+        Threshold::Absolute => args.max_distance.unwrap_or(0.0),
+        Threshold::Quantile => {
+            let mut v: Vec<f64> = minima.iter().map(|m| m.2).collect();
+            v.sort_by(f64::total_cmp);
+            let idx = ((args.quantile * v.len() as f64).ceil() as usize).clamp(1, v.len().max(1)) - 1;
+            v.get(idx).copied().unwrap_or(0.0)
+        }
+    };
+    let mut edges: Vec<Edge> = Vec::new();
+    let mut g = Graph::new(n);
+    for &(s, e) in &segs {
+        for r in s..e - 1 {
+            g.add(r, r + 1, 1, edges.len());
+            edges.push(Edge {
+                from: r as i64,
+                to: (r + 1) as i64,
+                kind: "next".into(),
+                cost: 1,
+                distance: 0.0,
+                in_scc: false,
+            });
+        }
+    }
+    let mut transitions = 0;
+    for &(from, to, d) in minima.iter().filter(|m| m.2 <= threshold) {
+        g.add(from, to, k as u32, edges.len());
+        edges.push(Edge {
+            from: from as i64,
+            to: to as i64,
+            kind: "transition".into(),
+            cost: k as i64,
+            distance: d,
+            in_scc: false,
+        });
+        transitions += 1;
+    }
+    let alive = largest_scc(&g);
+    edges.iter_mut().for_each(|e| e.in_scc = alive[e.from as usize] && alive[e.to as usize]);
+    let nodes = Nodes {
+        segment_id: labeled.segment_id.clone(),
+        label: labeled.label.clone(),
+        clip: labeled.frames.clip.clone(),
+        frame: labeled.frames.frame.clone(),
+        in_scc: alive.clone(),
+    };
+    let mut per_label: Vec<(String, usize, usize)> = Vec::new();
+    for (label, &a) in labeled.label.iter().zip(&alive) {
+        let i = match per_label.iter().position(|p| &p.0 == label) {
+            Some(i) => i,
+            None => {
+                per_label.push((label.clone(), 0, 0));
+                per_label.len() - 1
+            }
+        };
+        per_label[i].1 += 1;
+        per_label[i].2 += usize::from(a);
+    }
+    motion_graph::write_nodes(&args.nodes, &nodes, &provenance)?;
+    motion_graph::write_edges(&args.edges, &edges, &provenance)?;
+    Ok(Some(Summary {
+        frames: n,
+        frames_in_scc: alive.iter().filter(|a| **a).count(),
+        minima: minima.len(),
+        transitions,
+        per_label,
+        threshold,
+    }))
+}
