@@ -78,6 +78,15 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     let game: Vec<usize> = (0..curves.script.len()).filter(|&r| curves.script[r] == "tic_tac_toe").collect();
     let switches = game.windows(2).filter(|w| curves.model[w[0]] != curves.model[w[1]]).count();
     assert_eq!(switches, 6, "the game script switches model six times");
+    // The baseline and the transition benchmark: every ordered pair asked five times.
+    let nodes = reprise_artifact::motion_graph::read_nodes(&a("mg_nodes")).unwrap();
+    assert_eq!(nodes.frame.len(), 3745);
+    let kept = nodes.in_scc.iter().filter(|v| **v).count();
+    assert!(kept > 0 && kept < 3745, "pruning keeps part of the graph: {kept}");
+    let reqs = reprise_artifact::transitions::read(&a("transition_requests")).unwrap();
+    assert_eq!(reqs.len(), 56 * 5);
+    assert!(reqs.iter().all(|r| r.reprise.latency.is_some()), "reprise answers every request through its bridges");
+    assert!(reqs.iter().filter(|r| r.baseline.latency.is_none()).all(|r| !r.baseline.error.is_empty()));
     // The same seeds give the same curves.
     let before = std::fs::read(a("curves")).unwrap();
     p.reprise(&["run", "--force", "synthesize"]).ok();

@@ -13,7 +13,8 @@
 //! | `gplvm_latents`, `gplvm_models`, `gplvm_trace`, `gplvm_fits` | [`gplvm`] | gplvm | bridges, synthesize, evaluate |
 //! | `bridges` | [`bridges`] | bridges | synthesize, evaluate |
 //! | `curves` | [`curves`] | synthesize | evaluate, glTF export |
-//! | `mg_nodes`, `mg_edges` | [`motion_graph`] | motion-graph | evaluate |
+//! | `mg_nodes`, `mg_edges` | [`motion_graph`] | motion-graph | transitions |
+//! | `transition_requests` | [`transitions`] | transitions | evaluate |
 //!
 //! Every file carries provenance ([`provenance`]) in its Parquet key-value metadata and
 //! is written atomically ([`table::write_atomic`]).
@@ -33,8 +34,9 @@ mod kinds {
     pub mod pca;
     pub mod scales;
     pub mod segments;
+    pub mod transitions;
 }
-pub use kinds::{bridges, clips, controls, curves, frames, gplvm, motion_graph, pca, scales, segments};
+pub use kinds::{bridges, clips, controls, curves, frames, gplvm, motion_graph, pca, scales, segments, transitions};
 
 pub use error::{ArtifactError, Result};
 pub use provenance::Provenance;

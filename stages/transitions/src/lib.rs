@@ -1,0 +1,299 @@
+//! The transition benchmark. For every ordered pair of labels (A, B), `per_pair` start
+//! frames of A are drawn (seeded); each request "from this frame, reach B" is answered
+//!
+//! - by **reprise**: the script start = the frame, IDLE `hold` seconds, TRANSITION to B,
+//!   IDLE `hold` seconds, run by the synthesis engine;
+//! - by the **baseline**: from the frame's node, the fewest-frames path in the pruned
+//!   motion graph to any frame of B, played frame by frame; a transition edge
+//!   $A_i \to B_{j+1}$ plays the $k$ blended frames $\alpha(p)p^A_{i+p} + (1-\alpha(p))p^B_{j-k+1+p}$
+//!   (rig space: the blend of scaled controls, unscaled, is this blend of controls), then
+//!   `hold` seconds more of B where its motion goes on. A start frame outside the largest
+//!   strongly connected component has no answer.
+//!
+//! Both write curves (scripts `r<id>`); a frame's `model` is the label being played (for
+//! blended frames, the label blended into). Latency: frames from the request to the
+//! first frame of B.
+
+use std::path::PathBuf;
+
+use clap::Parser;
+use rand::{Rng, SeedableRng};
+use rayon::prelude::*;
+use reprise_artifact::curves::{self, Curves};
+use reprise_artifact::frames::LabeledFrames;
+use reprise_artifact::motion_graph;
+use reprise_artifact::transitions::{self, Answer, Request};
+use reprise_artifact::{bridges, gplvm};
+use reprise_motiongraph::{blend_weight, Graph};
+use reprise_stagekit::{StageError, StageResult};
+use reprise_synth::engine::{self, Library, Link, Settings, TrainingFrame};
+use reprise_synth::script::{Command, Script, Start};
+use serde::Serialize;
+
+/// `reprise-transitions`: the transition benchmark.
+#[derive(Debug, Clone, Parser, Serialize)]
+#[command(name = "reprise-transitions", version, about)]
+pub struct Args {
+    /// Input: the GPLVM models.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub gplvm_models: PathBuf,
+    /// Input: the GPLVM latents.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub latents: PathBuf,
+    /// Input: the PCA models.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub pca_models: PathBuf,
+    /// Input: the scales.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub scales: PathBuf,
+    /// Input: the bridges.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub bridges: PathBuf,
+    /// Input: the labeled frames.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub labeled_frames: PathBuf,
+    /// Input: the motion graph's nodes.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub mg_nodes: PathBuf,
+    /// Input: the motion graph's edges.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub mg_edges: PathBuf,
+    /// Output: the requests and how each system answered.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub requests: PathBuf,
+    /// Output: reprise's curves.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub reprise_curves: PathBuf,
+    /// Output: the baseline's curves.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub baseline_curves: PathBuf,
+    /// Requests per ordered pair of labels.
+    #[arg(long, default_value_t = 5)]
+    pub per_pair: usize,
+    /// Seed of the start frames (and of reprise's random force, + request id).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Seconds played before and after the transition.
+    #[arg(long, default_value_t = 0.5)]
+    pub hold: f64,
+    /// The motion graph's blend length k (frames; as its window).
+    #[arg(long, default_value_t = 12)]
+    pub window: usize,
+    /// Only validate the flags and exit.
+    #[arg(long)]
+    #[serde(skip)]
+    pub check: bool,
+}
+
+/// One answer's frames: (label, controls) per frame.
+type Played = Vec<(String, Vec<f64>)>;
+
+/// The baseline's graph and what playing it needs.
+struct Baseline<'a> {
+    g: &'a Graph,
+    alive: &'a [bool],
+    edges: &'a [motion_graph::Edge],
+    labeled: &'a LabeledFrames,
+    k: usize,
+    hold: usize,
+}
+
+/// One request's answers: the request, reprise's frames, the baseline's frames.
+type Answers = (Request, Result<Played, String>, Result<Played, String>);
+
+impl Baseline<'_> {
+    fn answer(&self, start: usize, to: &str) -> Result<Played, String> {
+        let Baseline { g, alive, edges, labeled, k, hold } = *self;
+        if !alive[start] {
+            return Err("the start frame is not in the motion graph's largest strongly connected component".into());
+        }
+        let (_, path) =
+            g.shortest_to(start, alive, |v| labeled.label[v] == to).ok_or_else(|| format!("no path to `{to}`"))?;
+        let row = |r: usize| labeled.frames.row(r).to_vec();
+        let mut out: Played = vec![(labeled.label[start].clone(), row(start))];
+        let mut at = start;
+        for &e in &path {
+            let edge = &edges[e];
+            let (from, dest) = (edge.from as usize, edge.to as usize);
+            if edge.kind == "transition" {
+                for p in 0..k {
+                    let (a, b) = (row(from + p), row(dest - k + p));
+                    let w = blend_weight(p as f64, k);
+                    out.push((
+                        labeled.label[dest].clone(),
+                        a.iter().zip(&b).map(|(x, y)| w * x + (1.0 - w) * y).collect(),
+                    ));
+                }
+            }
+            out.push((labeled.label[dest].clone(), row(dest)));
+            at = dest;
+        }
+        // Play on in B while its motion continues.
+        for _ in 0..hold {
+            match g.adj[at].iter().find(|&&(w, _, id)| edges[id].kind == "next" && alive[w]) {
+                Some(&(w, _, _)) => {
+                    out.push((labeled.label[w].clone(), row(w)));
+                    at = w;
+                }
+                None => break,
+            }
+        }
+        Ok(out)
+    }
+}
+
+fn latency(p: &Played, to: &str) -> Option<i64> {
+    p.iter().position(|(l, _)| l == to).map(|i| i as i64)
+}
+
+/// Runs the stage; returns the requests.
+pub fn run(args: &Args) -> StageResult<Option<Vec<Request>>> {
+    if args.per_pair == 0 || args.hold.is_nan() || args.hold < 0.0 || args.window < 2 {
+        return Err(StageError::Config("need --per-pair >= 1, --hold >= 0, --window >= 2".into()));
+    }
+    if args.check {
+        return Ok(None);
+    }
+    let mut provenance = reprise_stagekit::provenance("transitions", env!("CARGO_PKG_VERSION"), args);
+    for (role, p) in [
+        ("gplvm_models", &args.gplvm_models),
+        ("latents", &args.latents),
+        ("pca_models", &args.pca_models),
+        ("scales", &args.scales),
+        ("bridges", &args.bridges),
+        ("labeled_frames", &args.labeled_frames),
+        ("mg_nodes", &args.mg_nodes),
+        ("mg_edges", &args.mg_edges),
+    ] {
+        provenance = provenance.with_input(role, p)?;
+    }
+    let models = reprise_model::load(&args.gplvm_models, &args.pca_models, &args.scales)?;
+    let latents = gplvm::read_latents(&args.latents)?;
+    let labeled = LabeledFrames::read(&args.labeled_frames)?;
+    let nodes = motion_graph::read_nodes(&args.mg_nodes)?;
+    let edges = motion_graph::read_edges(&args.mg_edges)?;
+    if nodes.frame.len() != labeled.frames.rows() || labeled.frames.controls != models.controls {
+        return Err(StageError::Input(format!(
+            "{} and {} do not describe the same frames and controls; rerun motion-graph",
+            args.mg_nodes.display(),
+            args.labeled_frames.display()
+        )));
+    }
+    let mut g = Graph::new(nodes.frame.len());
+    for (i, e) in edges.iter().enumerate() {
+        g.add(e.from as usize, e.to as usize, e.cost as u32, i);
+    }
+    let frames: Vec<Vec<TrainingFrame>> = models
+        .models
+        .iter()
+        .map(|m| {
+            (0..latents.label.len())
+                .filter(|&r| latents.label[r] == m.label)
+                .map(|r| TrainingFrame {
+                    segment: latents.segment_id[r],
+                    clip: latents.clip[r].clone(),
+                    frame: latents.frame[r],
+                    x: latents.x[r].clone(),
+                })
+                .collect()
+        })
+        .collect();
+    let links = bridges::read(&args.bridges)?
+        .into_iter()
+        .map(|b| Link { from: b.from, to: b.to, x1: b.x1, x2: b.x2, distance: b.rig_distance })
+        .collect();
+    let lib = Library { models: models.models.iter().collect(), frames, links };
+    let settings = Settings { fps: labeled.frames.fps, ..Settings::default() };
+    let hold_frames = (args.hold * labeled.frames.fps).round() as usize;
+    // The seeded requests.
+    let labels: Vec<String> = models.models.iter().map(|m| m.label.clone()).collect();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed);
+    let mut requests = Vec::new();
+    for a in &labels {
+        let rows: Vec<usize> = (0..labeled.frames.rows()).filter(|&r| &labeled.label[r] == a).collect();
+        for b in labels.iter().filter(|b| *b != a) {
+            for _ in 0..args.per_pair {
+                let r = rows[rng.gen_range(0..rows.len())];
+                requests.push((requests.len(), a.clone(), b.clone(), r));
+            }
+        }
+    }
+    let base =
+        Baseline { g: &g, alive: &nodes.in_scc, edges: &edges, labeled: &labeled, k: args.window, hold: hold_frames };
+    let bar = reprise_stagekit::progress(requests.len() as u64, "transitions");
+    let answers: Vec<Answers> = requests
+        .par_iter()
+        .map(|(id, a, b, r)| {
+            let hold =
+                Command::Idle { duration: args.hold.max(1.0 / settings.fps), radius: None, poses: vec![], hover: None };
+            let script = Script {
+                name: Some(format!("r{id}")),
+                seed: args.seed.wrapping_add(*id as u64),
+                start: Start {
+                    label: a.clone(),
+                    segment: Some(labeled.segment_id[*r]),
+                    clip: None,
+                    frame: Some(labeled.frames.frame[*r]),
+                    latent: None,
+                },
+                commands: vec![hold.clone(), Command::Transition { to: b.clone(), blend_frames: None }, hold],
+            };
+            let ours = engine::run(&lib, &script, &settings)
+                .map(|f| f.into_iter().map(|f| (labels[f.model].clone(), f.controls)).collect::<Played>())
+                .map_err(|e| e.to_string());
+            let theirs = base.answer(*r, b);
+            let answer = |p: &Result<Played, String>| match p {
+                Ok(p) => Answer { latency: latency(p, b), error: String::new() },
+                Err(e) => Answer { latency: None, error: e.clone() },
+            };
+            let req = Request {
+                request: *id as i64,
+                from: a.clone(),
+                to: b.clone(),
+                segment_id: labeled.segment_id[*r],
+                clip: labeled.frames.clip[*r].clone(),
+                frame: labeled.frames.frame[*r],
+                reprise: answer(&ours),
+                baseline: answer(&theirs),
+            };
+            bar.inc(1);
+            (req, ours, theirs)
+        })
+        .collect();
+    bar.finish_and_clear();
+    let fps = labeled.frames.fps;
+    let curves_of = |pick: fn(&Answers) -> &Result<Played, String>| {
+        let mut c = Curves { fps, controls: models.controls.clone(), ..Default::default() };
+        for ans in &answers {
+            if let Ok(p) = pick(ans) {
+                for (f, (label, controls)) in p.iter().enumerate() {
+                    c.script.push(format!("r{}", ans.0.request));
+                    c.frame.push(f as i64);
+                    c.time.push(f as f64 / fps);
+                    c.model.push(label.clone());
+                    c.command.push(0);
+                    c.x.push(vec![]);
+                    c.values.extend_from_slice(controls);
+                }
+            }
+        }
+        c
+    };
+    let (ours, theirs) = (curves_of(|a| &a.1), curves_of(|a| &a.2));
+    curves::write(&args.reprise_curves, &ours, &provenance)?;
+    curves::write(&args.baseline_curves, &theirs, &provenance)?;
+    let reqs: Vec<Request> = answers.into_iter().map(|a| a.0).collect();
+    transitions::write(&args.requests, &reqs, &provenance)?;
+    Ok(Some(reqs))
+}
