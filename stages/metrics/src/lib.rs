@@ -1,0 +1,134 @@
+//! Metrics of synthesized animation, on per-frame vectors (mesh vertices `x0 y0 z0 x1 …`,
+//! or scaled controls), with no I/O. Definitions (the report restates them):
+//!
+//! - **Peak vertex acceleration** of frame $t$: $\max_v\lVert x_v(t+1) - 2x_v(t) + x_v(t-1)\rVert\,f^2$
+//!   (mesh units/s², $f$ = fps), the central second difference; **peak jerk** of frame $t$:
+//!   $\max_v\lVert x_v(t+2) - 3x_v(t+1) + 3x_v(t) - x_v(t-1)\rVert\,f^3$ ([`peaks`]).
+//! - **Plausibility distance** of a pose: the Euclidean distance to its nearest training
+//!   pose ([`nearest_distance`]), divided by the typical per-frame motion of the training data
+//!   (the median distance between consecutive frames).
+//! - **Variety** of two runs of one script: the mean over frames of the distance between
+//!   their poses ([`mean_distance`]).
+//! - Confidence intervals: percentile bootstrap of the mean ([`bootstrap_mean_ci`]).
+
+use rand::{Rng, SeedableRng};
+
+/// Per frame, the peak vertex acceleration and jerk (see the crate docs) of a sequence of
+/// `frames` vectors of `3V` values (row-major); entries without enough neighbours are 0.
+pub fn peaks(x: &[f64], dim: usize, fps: f64) -> (Vec<f64>, Vec<f64>) {
+    let n = x.len() / dim;
+    let f = |t: usize| &x[t * dim..(t + 1) * dim];
+    let (mut acc, mut jerk) = (vec![0.0; n], vec![0.0; n]);
+    for t in 1..n.saturating_sub(1) {
+        let (a, b, c) = (f(t - 1), f(t), f(t + 1));
+        acc[t] = (0..dim / 3)
+            .map(|v| (0..3).map(|k| (c[3 * v + k] - 2.0 * b[3 * v + k] + a[3 * v + k]).powi(2)).sum::<f64>().sqrt())
+            .fold(0.0, f64::max)
+            * fps
+            * fps;
+        if t + 2 < n {
+            let d = f(t + 2);
+            jerk[t] = (0..dim / 3)
+                .map(|v| {
+                    (0..3)
+                        .map(|k| (d[3 * v + k] - 3.0 * c[3 * v + k] + 3.0 * b[3 * v + k] - a[3 * v + k]).powi(2))
+                        .sum::<f64>()
+                        .sqrt()
+                })
+                .fold(0.0, f64::max)
+                * fps
+                * fps
+                * fps;
+        }
+    }
+    (acc, jerk)
+}
+
+/// The `q`-quantile (0–1) of `values` by linear interpolation between order statistics;
+/// NaN for no values.
+pub fn quantile(values: &[f64], q: f64) -> f64 {
+    let mut v: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let pos = q.clamp(0.0, 1.0) * (v.len() - 1) as f64;
+    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
+    v[lo] + (pos - lo as f64) * (v[hi] - v[lo])
+}
+
+/// The distance from `x` to the nearest of the rows of `set` (`rows × dim`).
+pub fn nearest_distance(x: &[f64], set: &[f64], dim: usize) -> f64 {
+    set.chunks_exact(dim)
+        .map(|r| r.iter().zip(x).map(|(a, b)| (a - b) * (a - b)).sum::<f64>())
+        .fold(f64::INFINITY, f64::min)
+        .sqrt()
+}
+
+/// The mean over frames of the distance between two equally long sequences.
+pub fn mean_distance(a: &[f64], b: &[f64], dim: usize) -> f64 {
+    let n = a.len().min(b.len()) / dim;
+    if n == 0 {
+        return f64::NAN;
+    }
+    (0..n)
+        .map(|t| {
+            a[t * dim..(t + 1) * dim].iter().zip(&b[t * dim..(t + 1) * dim]).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt()
+        })
+        .sum::<f64>()
+        / n as f64
+}
+
+/// The mean of `values` and its 95 % percentile-bootstrap interval (`resamples` draws,
+/// seeded): (mean, low, high); NaNs for no values.
+pub fn bootstrap_mean_ci(values: &[f64], resamples: usize, seed: u64) -> (f64, f64, f64) {
+    let n = values.len();
+    if n == 0 {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    }
+    let mean = values.iter().sum::<f64>() / n as f64;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let means: Vec<f64> =
+        (0..resamples).map(|_| (0..n).map(|_| values[rng.gen_range(0..n)]).sum::<f64>() / n as f64).collect();
+    (mean, quantile(&means, 0.025), quantile(&means, 0.975))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit step of one vertex along x at frame 5 has second differences ±1 and third
+    /// differences 1, −3·… : peak acceleration f² at frames 4 and 5, peak jerk ≤ 3f³ — and
+    /// a constant-velocity motion has none.
+    #[test]
+    fn a_step_has_a_known_jerk() {
+        let fps = 24.0;
+        let x: Vec<f64> = (0..10).flat_map(|t| [if t >= 5 { 1.0 } else { 0.0 }, 0.0, 0.0]).collect();
+        let (acc, jerk) = peaks(&x, 3, fps);
+        assert_eq!(acc[4], fps * fps);
+        assert_eq!(acc[5], fps * fps);
+        assert_eq!(acc[3], 0.0);
+        // x(t+2) − 3x(t+1) + 3x(t) − x(t−1) at t = 3: 1 − 0 = 1; at t = 4: 1 − 3 = −2 → 2.
+        assert_eq!(jerk[3], fps.powi(3));
+        assert_eq!(jerk[4], 2.0 * fps.powi(3));
+        let lin: Vec<f64> = (0..10).flat_map(|t| [t as f64 * 0.5, 1.0, -(t as f64)]).collect();
+        let (a, j) = peaks(&lin, 3, fps);
+        assert!(a.iter().chain(&j).all(|v| v.abs() < 1e-9));
+    }
+
+    /// Identical runs have zero variety; a copied training frame has zero plausibility
+    /// distance; quantiles interpolate; the bootstrap interval brackets the mean.
+    #[test]
+    fn known_answers() {
+        let a = vec![1.0, 2.0, 3.0, 4.0];
+        assert_eq!(mean_distance(&a, &a, 2), 0.0);
+        assert!((mean_distance(&a, &[1.0, 2.0, 3.0, 5.0], 2) - 0.5).abs() < 1e-12);
+        let train = vec![0.0, 0.0, 3.0, 4.0, 1.0, 1.0];
+        assert_eq!(nearest_distance(&[3.0, 4.0], &train, 2), 0.0);
+        assert!((nearest_distance(&[3.0, 0.0], &train, 2) - 5f64.sqrt()).abs() < 1e-12);
+        assert_eq!(quantile(&[3.0, 1.0, 2.0, 4.0], 0.5), 2.5);
+        let v: Vec<f64> = (0..100).map(|i| i as f64).collect();
+        let (m, lo, hi) = bootstrap_mean_ci(&v, 500, 1);
+        assert!(lo < m && m < hi && (m - 49.5).abs() < 1e-12 && hi - lo < 20.0);
+    }
+}
