@@ -87,6 +87,14 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     assert_eq!(reqs.len(), 56 * 5);
     assert!(reqs.iter().all(|r| r.reprise.latency.is_some()), "reprise answers every request through its bridges");
     assert!(reqs.iter().filter(|r| r.baseline.latency.is_none()).all(|r| !r.baseline.error.is_empty()));
+    // The evaluation: metrics for both systems and a report that names where each wins.
+    let metrics =
+        reprise_artifact::Table::read(&p.path("reports/dragon-face/metrics.parquet"), reprise_evaluate::METRICS)
+            .unwrap();
+    let systems = metrics.strings("system").unwrap();
+    assert!(systems.iter().any(|s| s == "reprise") && systems.iter().any(|s| s == "baseline"));
+    let md = p.read("reports/dragon-face/report.md");
+    assert!(md.contains("Motion Graphs is better on") && md.contains("## Definitions"), "{md}");
     // The same seeds give the same curves.
     let before = std::fs::read(a("curves")).unwrap();
     p.reprise(&["run", "--force", "synthesize"]).ok();

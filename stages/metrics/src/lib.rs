@@ -73,7 +73,12 @@ pub fn mean_distance(a: &[f64], b: &[f64], dim: usize) -> f64 {
     }
     (0..n)
         .map(|t| {
-            a[t * dim..(t + 1) * dim].iter().zip(&b[t * dim..(t + 1) * dim]).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt()
+            a[t * dim..(t + 1) * dim]
+                .iter()
+                .zip(&b[t * dim..(t + 1) * dim])
+                .map(|(x, y)| (x - y).powi(2))
+                .sum::<f64>()
+                .sqrt()
         })
         .sum::<f64>()
         / n as f64
