@@ -324,11 +324,11 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
             })
             .collect();
         let per: Vec<_> = per.into_iter().collect::<StageResult<_>>()?;
-        let all = |pick: &dyn Fn(&(String, String, f64, f64, f64, Vec<f64>)) -> Vec<f64>,
-                   from: &str,
-                   to: &str|
-         -> Vec<f64> {
-            per.iter().filter(|p| (from == "all" || p.0 == from) && (to == "all" || p.1 == to)).flat_map(pick).collect()
+        let all = |pick: &dyn Fn(&Measured) -> Vec<f64>, from: &str, to: &str| -> Vec<f64> {
+            per.iter()
+                .filter(|p| (from == "all" || p.from == from) && (to == "all" || p.to == to))
+                .flat_map(pick)
+                .collect()
         };
         let mut groups: Vec<(String, String)> = vec![("all".into(), "all".into())];
         groups.extend(pairs.iter().cloned());
