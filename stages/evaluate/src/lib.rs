@@ -26,6 +26,9 @@
 //!
 //! Confidence intervals: 95 % percentile bootstrap of the mean (1000 resamples, seeded).
 
+mod html;
+mod render;
+
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -94,6 +97,29 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
     pub pca_errors: PathBuf,
+    /// Input: the GPLVM latents (the latent-space figures).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub latents: PathBuf,
+    /// Input: the GPLVM models (bridge poses).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub gplvm_models: PathBuf,
+    /// Input: the PCA models (bridge poses).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub pca_models: PathBuf,
+    /// Input: synthesized curves (the filmstrip shows their first script).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub curves: PathBuf,
+    /// Output: the HTML report (self-contained).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub html: PathBuf,
+    /// The runner's lock file, read (if present) for per-stage times in the provenance.
+    #[arg(long, value_name = "FILE")]
+    pub lock: Option<PathBuf>,
     /// Output: the metrics table.
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
@@ -102,6 +128,9 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
     pub report: PathBuf,
+    /// The report's title (the pipeline's name).
+    #[arg(long, default_value = "reprise")]
+    pub name: String,
     /// The blend length k (frames).
     #[arg(long, default_value_t = 12)]
     pub window: usize,
@@ -181,7 +210,14 @@ struct Measured {
     latency: f64,
     /// Plausibility distances of its (strided) frames.
     plausibility: Vec<f64>,
+    /// Peak vertex speed at offsets `-SPEED_BEFORE..=SPEED_AFTER` from the first target
+    /// frame (NaN outside the answer).
+    speed: Vec<f64>,
 }
+
+/// Frames before and after the first target frame in the velocity figure.
+const SPEED_BEFORE: i64 = 12;
+const SPEED_AFTER: i64 = 30;
 
 /// Per request of one system: (request, frames of controls as table rows).
 fn by_script(c: &Curves) -> BTreeMap<i64, Vec<Vec<f64>>> {
@@ -218,6 +254,10 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         ("mg_edges", &args.mg_edges),
         ("gplvm_fits", &args.gplvm_fits),
         ("pca_errors", &args.pca_errors),
+        ("latents", &args.latents),
+        ("gplvm_models", &args.gplvm_models),
+        ("pca_models", &args.pca_models),
+        ("curves", &args.curves),
     ] {
         provenance = provenance.with_input(role, p)?;
     }
@@ -287,6 +327,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     let step = quantile(&steps, 0.5).max(1e-12);
 
     let mut out: Vec<Metric> = Vec::new();
+    let mut speed_traces = Vec::new();
     let pairs: Vec<(String, String)> = {
         let mut p: Vec<(String, String)> = reqs.iter().map(|r| (r.from.clone(), r.to.clone())).collect();
         p.dedup();
@@ -313,7 +354,26 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
                     .step_by(args.plausibility_stride)
                     .map(|p| nearest_distance(&z(p), &ztrain, c) / step)
                     .collect();
+                let speed = (-SPEED_BEFORE..=SPEED_AFTER)
+                    .map(|o| {
+                        let t = l + o;
+                        if t < 1 || t as usize >= f.len() {
+                            return f64::NAN;
+                        }
+                        let t = t as usize;
+                        (0..dim / 3)
+                            .map(|v| {
+                                (0..3)
+                                    .map(|a| (m[t * dim + 3 * v + a] - m[(t - 1) * dim + 3 * v + a]).powi(2))
+                                    .sum::<f64>()
+                                    .sqrt()
+                            })
+                            .fold(0.0, f64::max)
+                            * fps
+                    })
+                    .collect();
                 Ok(Measured {
+                    speed,
                     from: r.from.clone(),
                     to: r.to.clone(),
                     accel: pa / acc95,
@@ -330,6 +390,19 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
                 .flat_map(pick)
                 .collect()
         };
+        let offsets: Vec<i64> = (-SPEED_BEFORE..=SPEED_AFTER).collect();
+        let mean_speed: Vec<f64> = (0..offsets.len())
+            .map(|i| {
+                let v: Vec<f64> = per.iter().map(|p| p.speed[i]).filter(|v| v.is_finite()).collect();
+                if v.is_empty() {
+                    f64::NAN
+                } else {
+                    v.iter().sum::<f64>() / v.len() as f64
+                }
+            })
+            .collect();
+        let shown = if system == "reprise" { "reprise" } else { "Motion Graphs" };
+        speed_traces.push((shown.to_string(), offsets, mean_speed));
         let mut groups: Vec<(String, String)> = vec![("all".into(), "all".into())];
         groups.extend(pairs.iter().cloned());
         for (gi, (from, to)) in groups.iter().enumerate() {
@@ -463,7 +536,6 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
             out.push(exact(&ev[r], "ablation_mesh_rmse", &el[r], "", m, 1, "mesh units"));
         }
     }
-    write_metrics(&args.metrics, &out, &provenance)?;
     let md = report(
         &out,
         &labels,
@@ -474,10 +546,15 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         nodes.in_scc.iter().filter(|v| **v).count(),
         nodes.frame.len(),
     );
-    reprise_artifact::table::write_atomic(&args.report, |f| {
-        use std::io::Write as _;
-        f.write_all(md.as_bytes()).map_err(|e| reprise_artifact::ArtifactError::io(&args.report, e))
-    })?;
+    let page = figures(args, &rig, &links, &labels, &training[..dim], &md, speed_traces, &provenance)?;
+    let html = html::page(&page, &out);
+    write_metrics(&args.metrics, &out, &provenance)?;
+    for (path, text) in [(&args.report, md.as_str()), (&args.html, html.as_str())] {
+        reprise_artifact::table::write_atomic(path, |f| {
+            use std::io::Write as _;
+            f.write_all(text.as_bytes()).map_err(|e| reprise_artifact::ArtifactError::io(path, e))
+        })?;
+    }
     Ok(Some(out))
 }
 
@@ -637,4 +714,130 @@ fn report(
         cs = args.coverage_seconds,
     );
     s
+}
+
+/// The figures' data and the provenance lines.
+#[allow(clippy::too_many_arguments)]
+fn figures<'a>(
+    args: &'a Args,
+    rig: &'a (Box<dyn reprise_rig::Rig>, reprise_rig::PoseLayout),
+    links: &[bridges::Bridge],
+    labels: &'a [String],
+    camera_mesh: &'a [f64],
+    md: &'a str,
+    speed: Vec<(String, Vec<i64>, Vec<f64>)>,
+    provenance: &reprise_artifact::Provenance,
+) -> StageResult<html::Page<'a>> {
+    let lat = reprise_artifact::gplvm::read_latents(&args.latents)?;
+    let latents = labels
+        .iter()
+        .map(|l| {
+            let mut segs: BTreeMap<i64, Vec<[f64; 2]>> = BTreeMap::new();
+            for r in (0..lat.label.len()).filter(|&r| &lat.label[r] == l) {
+                segs.entry(lat.segment_id[r]).or_default().push([lat.x[r][0], lat.x[r].get(1).copied().unwrap_or(0.0)]);
+            }
+            (l.clone(), segs.into_values().collect())
+        })
+        .collect();
+    let models = reprise_model::load(&args.gplvm_models, &args.pca_models, &args.scales)?;
+    let pose = |m: &reprise_numerics::gplvm::LatentModel, x: &[f64]| {
+        let mut p = vec![0.0; m.controls()];
+        m.controls_into(x, &mut vec![0.0; m.d()], &mut p);
+        p
+    };
+    let mut best: Vec<&bridges::Bridge> = links.iter().filter(|b| b.rank == 1).collect();
+    best.sort_by(|a, b| {
+        a.mesh_distance.unwrap_or(a.rig_distance).total_cmp(&b.mesh_distance.unwrap_or(b.rig_distance))
+    });
+    let mut bridge_figs = Vec::new();
+    for b in best.into_iter().take(6) {
+        let (m1, m2) = (models.require(&b.from)?, models.require(&b.to)?);
+        let poses = meshes(rig, &[pose(m1, &b.x1), pose(m2, &b.x2)])?;
+        let half = poses.len() / 2;
+        let caption = format!("{} → {} (mesh distance {:.3})", b.from, b.to, b.mesh_distance.unwrap_or(f64::NAN));
+        bridge_figs.push((caption, poses[..half].to_vec(), poses[half..].to_vec()));
+    }
+    let synth = curves::read(&args.curves)?;
+    let filmstrip = match synth.script.first().cloned() {
+        None => None,
+        Some(name) => {
+            let n = synth.controls.len();
+            let rows: Vec<usize> =
+                (0..synth.script.len()).filter(|&r| synth.script[r] == name).step_by(12).take(16).collect();
+            let poses: Vec<Vec<f64>> = rows.iter().map(|&r| synth.values[r * n..(r + 1) * n].to_vec()).collect();
+            let m = meshes(rig, &poses)?;
+            let d = m.len() / poses.len().max(1);
+            let frames = rows
+                .iter()
+                .enumerate()
+                .map(|(i, &r)| (format!("{} · {:.1} s", synth.model[r], synth.time[r]), m[i * d..(i + 1) * d].to_vec()))
+                .collect();
+            Some((format!("Script `{name}`, every 12th frame (0.5 s), captioned with the model that made it."), frames))
+        }
+    };
+    let commit = std::process::Command::new("git")
+        .args(["rev-parse", "HEAD"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map_or("unknown".into(), |o| String::from_utf8_lossy(&o.stdout).trim().to_string());
+    let pipeline = reprise_artifact::provenance::hash_file(std::path::Path::new("pipeline.toml"))
+        .unwrap_or_else(|_| "no pipeline.toml beside the run".into());
+    let mut prov = vec![
+        ("stage".to_string(), format!("{} {}", provenance.stage, provenance.stage_version)),
+        ("commit".to_string(), commit),
+        ("pipeline.toml blake3".to_string(), pipeline),
+        ("machine".to_string(), machine()),
+    ];
+    for (role, input) in &provenance.inputs {
+        prov.push((
+            format!("input {role}"),
+            format!("{} (blake3 {})", input.path, &input.blake3[..16.min(input.blake3.len())]),
+        ));
+    }
+    if let Some(lock) = args.lock.as_ref().and_then(|p| std::fs::read_to_string(p).ok()) {
+        prov.extend(stage_times(&lock));
+    }
+    Ok(html::Page {
+        name: &args.name,
+        summary_md: md,
+        latents,
+        bridges: bridge_figs,
+        filmstrip,
+        triangles: rig.0.triangles(),
+        camera_mesh,
+        speed,
+        labels,
+        provenance: prov,
+    })
+}
+
+/// CPU model and cores, from /proc/cpuinfo where there is one.
+fn machine() -> String {
+    let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let model = info
+        .lines()
+        .find(|l| l.starts_with("model name"))
+        .and_then(|l| l.split(':').nth(1))
+        .unwrap_or("unknown")
+        .trim()
+        .to_string();
+    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    format!("{model}, {cores} cores")
+}
+
+/// `seconds <stage>` lines from the runner's lock file (its stage entries' `seconds`).
+fn stage_times(lock: &str) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    let mut current: Option<String> = None;
+    for line in lock.lines() {
+        let t = line.trim();
+        if line.starts_with("    \"") && !line.starts_with("     ") && t.ends_with('{') {
+            current = t.split('"').nth(1).map(str::to_string);
+        }
+        if let (Some(stage), Some(v)) = (&current, t.strip_prefix("\"seconds\":")) {
+            out.push((format!("seconds {stage}"), v.trim().trim_end_matches(',').to_string()));
+        }
+    }
+    out
 }
