@@ -95,6 +95,12 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     assert!(systems.iter().any(|s| s == "reprise") && systems.iter().any(|s| s == "baseline"));
     let md = p.read("reports/dragon-face/report.md");
     assert!(md.contains("Motion Graphs is better on") && md.contains("## Definitions"), "{md}");
+    let html = p.read("reports/dragon-face/index.html");
+    for id in ["latents", "bridges", "filmstrip", "velocity", "coverage"] {
+        assert!(html.contains(&format!("id='{id}'")), "the report has the {id} figure");
+    }
+    assert!(html.matches("data:image/png;base64,").count() >= 12, "rendered bridge poses and filmstrip frames");
+    assert!(!html.contains("src='http") && !html.contains("<script"), "self-contained, no scripts");
     // The same seeds give the same curves.
     let before = std::fs::read(a("curves")).unwrap();
     p.reprise(&["run", "--force", "synthesize"]).ok();

@@ -8,6 +8,9 @@ use base64::Engine as _;
 use crate::render::{png, render, Camera};
 use crate::Metric;
 
+/// A mesh with its caption.
+pub type Picture = (String, Vec<f64>);
+
 /// Everything the page shows besides the metric rows.
 pub struct Page<'a> {
     /// Pipeline name.
@@ -19,7 +22,7 @@ pub struct Page<'a> {
     /// Bridge pose pairs: (caption, mesh of M1's pose, mesh of M2's pose).
     pub bridges: Vec<(String, Vec<f64>, Vec<f64>)>,
     /// Filmstrip: (caption, per frame (label, mesh)).
-    pub filmstrip: Option<(String, Vec<(String, Vec<f64>)>)>,
+    pub filmstrip: Option<(String, Vec<Picture>)>,
     /// Triangles of the rig's mesh.
     pub triangles: &'a [[u32; 3]],
     /// A mesh that fixes the camera (a training pose).
