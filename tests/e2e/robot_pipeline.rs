@@ -17,6 +17,7 @@ fn robot_expressive_through_gplvm() {
         .unwrap()
         .replace("../../../shared/datasets/robot_expressive/RobotExpressive.glb", &glb.display().to_string())
         .replace("../../artifacts", "artifacts")
+        .replace("../../reports", "reports")
         .replace("max_iters = 300", "max_iters = 20");
     p.write("pipeline.toml", &toml);
     p.write("labels.toml", &std::fs::read_to_string(repo().join("datasets/robot-expressive/labels.toml")).unwrap());
@@ -67,6 +68,10 @@ fn robot_expressive_through_gplvm() {
         }
         assert!(worst < 1e-4, "{script}: largest vertex difference after export and re-ingest {worst}");
     }
+    // Its own comparison report.
+    let md = p.read("reports/robot-expressive/report.md");
+    assert!(md.contains("Motion Graphs is better on"), "{md}");
+    assert!(p.read("reports/robot-expressive/index.html").contains("id='coverage'"));
     // The character file is the rig: a file whose content differs from what ingest read
     // is refused, not silently evaluated.
     let RigRef::Gltf { path, .. } = &controls.rig else { unreachable!() };

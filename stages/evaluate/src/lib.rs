@@ -73,6 +73,10 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
     pub reprise_curves: PathBuf,
+    /// Input: reprise's transition curves under other seeds.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub reprise_reseeded: PathBuf,
     /// Input: the baseline's transition curves.
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
@@ -249,6 +253,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         ("requests", &args.requests),
         ("reprise_curves", &args.reprise_curves),
         ("baseline_curves", &args.baseline_curves),
+        ("reprise_reseeded", &args.reprise_reseeded),
         ("bridges", &args.bridges),
         ("mg_nodes", &args.mg_nodes),
         ("mg_edges", &args.mg_edges),
@@ -277,8 +282,6 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     let n = labeled.frames.rows();
     let rows: Vec<Vec<f64>> = (0..n).map(|r| labeled.frames.row(r).to_vec()).collect();
     // Training reference: per-frame peaks within each segment, and consecutive distances.
-    let training = meshes(&rig, &rows)?;
-    let dim = training.len() / n.max(1);
     let mut seg_runs: Vec<(usize, usize)> = Vec::new();
     for r in 0..n {
         match seg_runs.last_mut() {
@@ -286,11 +289,22 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
             _ => seg_runs.push((r, r + 1)),
         }
     }
+    // Training meshes one segment at a time (all of them at once would be N × 3V values).
+    let camera_mesh = meshes(&rig, &rows[..1])?;
+    let dim = camera_mesh.len();
+    let per_segment: Vec<StageResult<(Vec<f64>, Vec<f64>)>> = seg_runs
+        .par_iter()
+        .map(|&(s, e)| {
+            let m = meshes(&rig, &rows[s..e])?;
+            let (a, j) = peaks(&m, dim, fps);
+            Ok((a[1..a.len().saturating_sub(1)].to_vec(), j[1..j.len().saturating_sub(2).max(1)].to_vec()))
+        })
+        .collect();
     let (mut tr_acc, mut tr_jerk) = (Vec::new(), Vec::new());
-    for &(s, e) in &seg_runs {
-        let (a, j) = peaks(&training[s * dim..e * dim], dim, fps);
-        tr_acc.extend_from_slice(&a[1..a.len().saturating_sub(1)]);
-        tr_jerk.extend_from_slice(&j[1..j.len().saturating_sub(2).max(1)]);
+    for r in per_segment {
+        let (a, j) = r?;
+        tr_acc.extend(a);
+        tr_jerk.extend(j);
     }
     let (acc95, jerk95) = (quantile(&tr_acc, 0.95), quantile(&tr_jerk, 0.95));
     // Scaled control space for plausibility (the motion graph's metric).
@@ -442,6 +456,26 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         }
     }
 
+    // Variety: reprise against itself under another seed, per request, on meshes; the
+    // baseline's graph search is deterministic, so its repeated answers are identical.
+    let (first, second) = (by_script(&ours), by_script(&curves::read(&args.reprise_reseeded)?));
+    let var: Vec<StageResult<f64>> = first
+        .par_iter()
+        .filter_map(|(id, a)| second.get(id).map(|b| (a, b)))
+        .map(|(a, b)| {
+            let (ma, mb) = (meshes(&rig, a)?, meshes(&rig, b)?);
+            let frames = ma.len().min(mb.len()) / dim;
+            let rms: f64 = (0..frames)
+                .map(|t| reprise_stagekit::rig::mesh_rmse(&ma[t * dim..(t + 1) * dim], &mb[t * dim..(t + 1) * dim]))
+                .sum::<f64>()
+                / frames.max(1) as f64;
+            Ok(rms)
+        })
+        .collect();
+    let var: Vec<f64> = var.into_iter().collect::<StageResult<_>>()?;
+    out.push(metric("reprise", "variety", "all", "all", &var, "mesh units", 7));
+    let answered_baseline = reqs.iter().filter(|r| r.baseline.latency.is_some()).count();
+    out.push(exact("baseline", "variety", "all", "all", 0.0, answered_baseline, "mesh units"));
     // Transition points and coverage.
     let links = bridges::read(&args.bridges)?;
     let nodes = motion_graph::read_nodes(&args.mg_nodes)?;
@@ -546,7 +580,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         nodes.in_scc.iter().filter(|v| **v).count(),
         nodes.frame.len(),
     );
-    let page = figures(args, &rig, &links, &labels, &training[..dim], &md, speed_traces, &provenance)?;
+    let page = figures(args, &rig, &links, &labels, &camera_mesh, &md, speed_traces, &provenance)?;
     let html = html::page(&page, &out);
     write_metrics(&args.metrics, &out, &provenance)?;
     for (path, text) in [(&args.report, md.as_str()), (&args.html, html.as_str())] {
@@ -605,7 +639,7 @@ fn report(
     let _ = writeln!(s, "| metric | reprise | Motion Graphs | better |\n|---|---|---|---|");
     let lower_better = ["peak_accel_ratio", "peak_jerk_ratio", "latency_s", "plausibility"];
     let mut wins = (Vec::new(), Vec::new());
-    for name in ["answered", "latency_s", "peak_accel_ratio", "peak_jerk_ratio", "plausibility"] {
+    for name in ["answered", "latency_s", "peak_accel_ratio", "peak_jerk_ratio", "plausibility", "variety"] {
         let (a, b) = (find(m, "reprise", name, "all", "all"), find(m, "baseline", name, "all", "all"));
         let better = match (a, b) {
             (Some(a), Some(b)) if a.value.is_finite() && b.value.is_finite() => {
@@ -701,6 +735,8 @@ fn report(
          frame, divided by the median distance between consecutive training frames ({step:.4}).\n\
          - `answered`: share of requests answered; `latency_s`: seconds from the request to the first frame of the target label \
          (reprise holds 0.5 s before its TRANSITION; the baseline leaves at once).\n\
+         - `variety`: per request, the mean over frames of the RMS vertex distance between reprise's answer and its answer \
+         under another seed (the random force's); the baseline's graph search is deterministic, so its variety is 0.\n\
          - `coverage`: share of training frames of A from which B is reached within {cs} s (baseline: shortest path in the pruned \
          graph, 0 for pruned frames; reprise: 1 when the bridges connect A to B directly or through a third label within the \
          route's fixed cost of reach + hover per hop).\n\

@@ -10,7 +10,8 @@
 //!   `hold` seconds more of B where its motion goes on. A start frame outside the largest
 //!   strongly connected component has no answer.
 //!
-//! Both write curves (scripts `r<id>`); a frame's `model` is the label being played (for
+//! reprise also answers every request once more with another seed (`reprise_reseeded`),
+//! for the variety metric. Both write curves (scripts `r<id>`); a frame's `model` is the label being played (for
 //! blended frames, the label blended into). Latency: frames from the request to the
 //! first frame of B.
 
@@ -74,6 +75,10 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
     pub reprise_curves: PathBuf,
+    /// Output: reprise's curves for the same requests under other seeds (for variety).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub reprise_reseeded: PathBuf,
     /// Output: the baseline's curves.
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
@@ -109,8 +114,12 @@ struct Baseline<'a> {
     hold: usize,
 }
 
-/// One request's answers: the request, reprise's frames, the baseline's frames.
-type Answers = (Request, Result<Played, String>, Result<Played, String>);
+/// One request's answers: the request, reprise's frames, the baseline's frames, and
+/// reprise's frames under another seed.
+type Answers = (Request, Result<Played, String>, Result<Played, String>, Result<Played, String>);
+
+/// The seed offset of the repeated runs.
+pub const RESEED: u64 = 1_000_003;
 
 impl Baseline<'_> {
     fn answer(&self, start: usize, to: &str) -> Result<Played, String> {
@@ -249,9 +258,13 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Request>>> {
                 },
                 commands: vec![hold.clone(), Command::Transition { to: b.clone(), blend_frames: None }, hold],
             };
-            let ours = engine::run(&lib, &script, &settings)
-                .map(|f| f.into_iter().map(|f| (labels[f.model].clone(), f.controls)).collect::<Played>())
-                .map_err(|e| e.to_string());
+            let play = |script: &Script| {
+                engine::run(&lib, script, &settings)
+                    .map(|f| f.into_iter().map(|f| (labels[f.model].clone(), f.controls)).collect::<Played>())
+                    .map_err(|e| e.to_string())
+            };
+            let ours = play(&script);
+            let again = play(&Script { seed: script.seed.wrapping_add(RESEED), ..script.clone() });
             let theirs = base.answer(*r, b);
             let answer = |p: &Result<Played, String>| match p {
                 Ok(p) => Answer { latency: latency(p, b), error: String::new() },
@@ -268,7 +281,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Request>>> {
                 baseline: answer(&theirs),
             };
             bar.inc(1);
-            (req, ours, theirs)
+            (req, ours, theirs, again)
         })
         .collect();
     bar.finish_and_clear();
@@ -290,8 +303,9 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Request>>> {
         }
         c
     };
-    let (ours, theirs) = (curves_of(|a| &a.1), curves_of(|a| &a.2));
+    let (ours, theirs, again) = (curves_of(|a| &a.1), curves_of(|a| &a.2), curves_of(|a| &a.3));
     curves::write(&args.reprise_curves, &ours, &provenance)?;
+    curves::write(&args.reprise_reseeded, &again, &provenance)?;
     curves::write(&args.baseline_curves, &theirs, &provenance)?;
     let reqs: Vec<Request> = answers.into_iter().map(|a| a.0).collect();
     transitions::write(&args.requests, &reqs, &provenance)?;
