@@ -282,13 +282,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     let n = labeled.frames.rows();
     let rows: Vec<Vec<f64>> = (0..n).map(|r| labeled.frames.row(r).to_vec()).collect();
     // Training reference: per-frame peaks within each segment, and consecutive distances.
-    let mut seg_runs: Vec<(usize, usize)> = Vec::new();
-    for r in 0..n {
-        match seg_runs.last_mut() {
-            Some((_, e)) if labeled.segment_id[r] == labeled.segment_id[r - 1] => *e = r + 1,
-            _ => seg_runs.push((r, r + 1)),
-        }
-    }
+    let seg_runs = labeled.segment_runs();
     // Training meshes one segment at a time (all of them at once would be N × 3V values).
     let camera_mesh = meshes(&rig, &rows[..1])?;
     let dim = camera_mesh.len();
@@ -309,19 +303,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     let (acc95, jerk95) = (quantile(&tr_acc, 0.95), quantile(&tr_jerk, 0.95));
     // Scaled control space for plausibility (the motion graph's metric).
     let scale_rows = scales::read(&args.scales)?;
-    let weight: Vec<f64> = labeled
-        .frames
-        .controls
-        .iter()
-        .map(|c| {
-            let used: Vec<f64> = scale_rows.iter().filter(|s| &s.control == c && s.used).map(|s| s.weight).collect();
-            if used.is_empty() {
-                0.0
-            } else {
-                used.iter().sum::<f64>() / used.len() as f64
-            }
-        })
-        .collect();
+    let weight = scales::mean_weights(&scale_rows, &labeled.frames.controls);
     let c = weight.len();
     let z = |p: &[f64]| -> Vec<f64> { p.iter().zip(&weight).map(|(a, w)| a * w).collect() };
     let ztrain: Vec<f64> = rows.iter().flat_map(|r| z(r)).collect();

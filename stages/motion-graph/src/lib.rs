@@ -106,32 +106,10 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     let labeled = LabeledFrames::read(&args.labeled_frames)?;
     let scale_rows = scales::read(&args.scales)?;
     let controls = &labeled.frames.controls;
-    let weight: Vec<f64> = controls
-        .iter()
-        .map(|c| {
-            let used: Vec<f64> = scale_rows.iter().filter(|s| &s.control == c && s.used).map(|s| s.weight).collect();
-            if used.is_empty() {
-                0.0
-            } else {
-                used.iter().sum::<f64>() / used.len() as f64
-            }
-        })
-        .collect();
+    let weight = scales::mean_weights(&scale_rows, &labeled.frames.controls);
     let dim = controls.len();
     let n = labeled.frames.rows();
-    // Segments as runs of rows (labeled frames are in segment order, frames ascending).
-    let mut segs: Vec<(usize, usize)> = Vec::new();
-    for r in 0..n {
-        match segs.last_mut() {
-            Some((s, e))
-                if labeled.segment_id[*s] == labeled.segment_id[r]
-                    && labeled.frames.frame[r] == labeled.frames.frame[r - 1] + 1 =>
-            {
-                *e = r + 1
-            }
-            _ => segs.push((r, r + 1)),
-        }
-    }
+    let segs = labeled.segment_runs();
     let z: Vec<f64> = (0..n)
         .flat_map(|r| labeled.frames.row(r).iter().zip(&weight).map(|(p, w)| p * w).collect::<Vec<_>>())
         .collect();

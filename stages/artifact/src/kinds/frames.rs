@@ -168,6 +168,23 @@ impl LabeledFrames {
         crate::table::write(path, LABELED_FRAMES, self.frames.columns(cols), provenance, &meta)
     }
 
+    /// Row ranges `[start, end)` of consecutive rows of one segment with consecutive frames.
+    pub fn segment_runs(&self) -> Vec<(usize, usize)> {
+        let mut runs: Vec<(usize, usize)> = Vec::new();
+        for r in 0..self.segment_id.len() {
+            match runs.last_mut() {
+                Some((_, e))
+                    if self.segment_id[r] == self.segment_id[r - 1]
+                        && self.frames.frame[r] == self.frames.frame[r - 1] + 1 =>
+                {
+                    *e = r + 1
+                }
+                _ => runs.push((r, r + 1)),
+            }
+        }
+        runs
+    }
+
     /// Reads a labeled frame table with the same checks as [`Frames::read`].
     pub fn read(path: &Path) -> Result<Self> {
         let table = Table::read(path, LABELED_FRAMES)?;

@@ -59,6 +59,22 @@ pub fn write(path: &Path, rows: &[Scale], provenance: &Provenance) -> Result<()>
     crate::table::write(path, SCALES, cols, provenance, &[])
 }
 
+/// Per control of `controls`, its weight averaged over the labels that use it (0 where
+/// none does): one metric for comparing frames across labels.
+pub fn mean_weights(rows: &[Scale], controls: &[String]) -> Vec<f64> {
+    controls
+        .iter()
+        .map(|c| {
+            let used: Vec<f64> = rows.iter().filter(|s| &s.control == c && s.used).map(|s| s.weight).collect();
+            if used.is_empty() {
+                0.0
+            } else {
+                used.iter().sum::<f64>() / used.len() as f64
+            }
+        })
+        .collect()
+}
+
 /// Reads a scales table.
 pub fn read(path: &Path) -> Result<Vec<Scale>> {
     let t = Table::read(path, SCALES)?;
