@@ -169,6 +169,68 @@ impl Args {
     }
 }
 
+/// What the synthesis engine's [`Library`] borrows: the label models, each model's training
+/// frames (from `gplvm_latents`, in the model's point order) and the bridges.
+#[derive(Debug)]
+pub struct LibraryParts {
+    /// The models.
+    pub models: reprise_model::Models,
+    /// Per model, its training frames.
+    pub frames: Vec<Vec<TrainingFrame>>,
+    /// The bridges.
+    pub links: Vec<Link>,
+}
+
+impl LibraryParts {
+    /// Loads models, latents and bridges, checking that every model has one latent row per
+    /// training point.
+    pub fn load(
+        gplvm_models: &std::path::Path,
+        latents: &std::path::Path,
+        pca_models: &std::path::Path,
+        scales: &std::path::Path,
+        bridges_path: &std::path::Path,
+    ) -> StageResult<Self> {
+        let models = reprise_model::load(gplvm_models, pca_models, scales)?;
+        let lat = gplvm::read_latents(latents)?;
+        let frames = models
+            .models
+            .iter()
+            .map(|m| {
+                let f: Vec<TrainingFrame> = (0..lat.label.len())
+                    .filter(|&r| lat.label[r] == m.label)
+                    .map(|r| TrainingFrame {
+                        segment: lat.segment_id[r],
+                        clip: lat.clip[r].clone(),
+                        frame: lat.frame[r],
+                        x: lat.x[r].clone(),
+                    })
+                    .collect();
+                if f.len() != m.predictor.n() {
+                    return Err(StageError::Input(format!(
+                        "{}: label `{}` has {} latent rows but its model {} points; rerun gplvm",
+                        latents.display(),
+                        m.label,
+                        f.len(),
+                        m.predictor.n()
+                    )));
+                }
+                Ok(f)
+            })
+            .collect::<StageResult<_>>()?;
+        let links = bridges::read(bridges_path)?
+            .into_iter()
+            .map(|b| Link { from: b.from, to: b.to, x1: b.x1, x2: b.x2, distance: b.rig_distance })
+            .collect();
+        Ok(Self { models, frames, links })
+    }
+
+    /// The engine's view.
+    pub fn library(&self) -> Library<'_> {
+        Library { models: self.models.models.iter().collect(), frames: self.frames.clone(), links: self.links.clone() }
+    }
+}
+
 /// One script's outcome.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScriptSummary {
@@ -204,38 +266,9 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<ScriptSummary>>> {
     let stem = args.scripts.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let scripts =
         Script::parse_file(&text, &stem).map_err(|e| StageError::Input(format!("{}: {e}", args.scripts.display())))?;
-    let models = reprise_model::load(&args.gplvm_models, &args.pca_models, &args.scales)?;
-    let latents = gplvm::read_latents(&args.latents)?;
-    let frames: Vec<Vec<TrainingFrame>> = models
-        .models
-        .iter()
-        .map(|m| {
-            let f: Vec<TrainingFrame> = (0..latents.label.len())
-                .filter(|&r| latents.label[r] == m.label)
-                .map(|r| TrainingFrame {
-                    segment: latents.segment_id[r],
-                    clip: latents.clip[r].clone(),
-                    frame: latents.frame[r],
-                    x: latents.x[r].clone(),
-                })
-                .collect();
-            if f.len() != m.predictor.n() {
-                return Err(StageError::Input(format!(
-                    "{}: label `{}` has {} latent rows but its model {} points; rerun gplvm",
-                    args.latents.display(),
-                    m.label,
-                    f.len(),
-                    m.predictor.n()
-                )));
-            }
-            Ok(f)
-        })
-        .collect::<StageResult<_>>()?;
-    let links = bridges::read(&args.bridges)?
-        .into_iter()
-        .map(|b| Link { from: b.from, to: b.to, x1: b.x1, x2: b.x2, distance: b.rig_distance })
-        .collect();
-    let lib = Library { models: models.models.iter().collect(), frames, links };
+    let parts = LibraryParts::load(&args.gplvm_models, &args.latents, &args.pca_models, &args.scales, &args.bridges)?;
+    let models = &parts.models;
+    let lib = parts.library();
     let settings = args.settings();
     let results: Vec<StageResult<(String, Vec<engine::Frame>, f64)>> = scripts
         .par_iter()

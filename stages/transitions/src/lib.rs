@@ -24,10 +24,10 @@ use reprise_artifact::curves::{self, Curves};
 use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::motion_graph;
 use reprise_artifact::transitions::{self, Answer, Request};
-use reprise_artifact::{bridges, gplvm};
+
 use reprise_motiongraph::{blend_weight, Graph};
 use reprise_stagekit::{StageError, StageResult};
-use reprise_synth::engine::{self, Library, Link, Settings, TrainingFrame};
+use reprise_synth::engine::{self, Settings};
 use reprise_synth::script::{Command, Script, Start};
 use serde::Serialize;
 
@@ -187,8 +187,14 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Request>>> {
     ] {
         provenance = provenance.with_input(role, p)?;
     }
-    let models = reprise_model::load(&args.gplvm_models, &args.pca_models, &args.scales)?;
-    let latents = gplvm::read_latents(&args.latents)?;
+    let parts = reprise_synthesize::LibraryParts::load(
+        &args.gplvm_models,
+        &args.latents,
+        &args.pca_models,
+        &args.scales,
+        &args.bridges,
+    )?;
+    let models = &parts.models;
     let labeled = LabeledFrames::read(&args.labeled_frames)?;
     let nodes = motion_graph::read_nodes(&args.mg_nodes)?;
     let edges = motion_graph::read_edges(&args.mg_edges)?;
@@ -203,26 +209,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Request>>> {
     for (i, e) in edges.iter().enumerate() {
         g.add(e.from as usize, e.to as usize, e.cost as u32, i);
     }
-    let frames: Vec<Vec<TrainingFrame>> = models
-        .models
-        .iter()
-        .map(|m| {
-            (0..latents.label.len())
-                .filter(|&r| latents.label[r] == m.label)
-                .map(|r| TrainingFrame {
-                    segment: latents.segment_id[r],
-                    clip: latents.clip[r].clone(),
-                    frame: latents.frame[r],
-                    x: latents.x[r].clone(),
-                })
-                .collect()
-        })
-        .collect();
-    let links = bridges::read(&args.bridges)?
-        .into_iter()
-        .map(|b| Link { from: b.from, to: b.to, x1: b.x1, x2: b.x2, distance: b.rig_distance })
-        .collect();
-    let lib = Library { models: models.models.iter().collect(), frames, links };
+    let lib = parts.library();
     let settings = Settings { fps: labeled.frames.fps, ..Settings::default() };
     let hold_frames = (args.hold * labeled.frames.fps).round() as usize;
     // The seeded requests.
