@@ -42,26 +42,10 @@ pub enum Cost {
 #[derive(Debug, Clone, Parser, Serialize)]
 #[command(name = "reprise-synthesize", version, about)]
 pub struct Args {
-    /// Input: the GPLVM models.
-    #[arg(long, value_name = "FILE")]
+    /// Inputs: the label models, their latents and the bridges.
+    #[command(flatten)]
     #[serde(skip)]
-    pub gplvm_models: PathBuf,
-    /// Input: the GPLVM latents (which training frame each latent point is).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub latents: PathBuf,
-    /// Input: the PCA models.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub pca_models: PathBuf,
-    /// Input: the scales.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub scales: PathBuf,
-    /// Input: the bridges.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub bridges: PathBuf,
+    pub models: ModelInputs,
     /// Input: a scripts file (TOML: one script, or several as [[script]] tables).
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
@@ -169,6 +153,44 @@ impl Args {
     }
 }
 
+/// The inputs every stage that runs the synthesis engine reads.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ModelInputs {
+    /// Input: the GPLVM models.
+    #[arg(long, value_name = "FILE")]
+    pub gplvm_models: PathBuf,
+    /// Input: the GPLVM latents (which training frame each latent point is).
+    #[arg(long, value_name = "FILE")]
+    pub latents: PathBuf,
+    /// Input: the PCA models.
+    #[arg(long, value_name = "FILE")]
+    pub pca_models: PathBuf,
+    /// Input: the scales.
+    #[arg(long, value_name = "FILE")]
+    pub scales: PathBuf,
+    /// Input: the bridges.
+    #[arg(long, value_name = "FILE")]
+    pub bridges: PathBuf,
+}
+
+impl ModelInputs {
+    /// (role, path) of each input, for provenance.
+    pub fn roles(&self) -> [(&'static str, &PathBuf); 5] {
+        [
+            ("gplvm_models", &self.gplvm_models),
+            ("latents", &self.latents),
+            ("pca_models", &self.pca_models),
+            ("scales", &self.scales),
+            ("bridges", &self.bridges),
+        ]
+    }
+
+    /// Loads them.
+    pub fn load(&self) -> StageResult<LibraryParts> {
+        LibraryParts::load(&self.gplvm_models, &self.latents, &self.pca_models, &self.scales, &self.bridges)
+    }
+}
+
 /// What the synthesis engine's [`Library`] borrows: the label models, each model's training
 /// frames (from `gplvm_latents`, in the model's point order) and the bridges.
 #[derive(Debug)]
@@ -251,14 +273,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<ScriptSummary>>> {
         return Ok(None);
     }
     let mut provenance = reprise_stagekit::provenance("synthesize", env!("CARGO_PKG_VERSION"), args);
-    for (role, p) in [
-        ("gplvm_models", &args.gplvm_models),
-        ("latents", &args.latents),
-        ("pca_models", &args.pca_models),
-        ("scales", &args.scales),
-        ("bridges", &args.bridges),
-        ("scripts", &args.scripts),
-    ] {
+    for (role, p) in args.models.roles().into_iter().chain([("scripts", &args.scripts)]) {
         provenance = provenance.with_input(role, p)?;
     }
     let text = std::fs::read_to_string(&args.scripts)
@@ -266,7 +281,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<ScriptSummary>>> {
     let stem = args.scripts.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let scripts =
         Script::parse_file(&text, &stem).map_err(|e| StageError::Input(format!("{}: {e}", args.scripts.display())))?;
-    let parts = LibraryParts::load(&args.gplvm_models, &args.latents, &args.pca_models, &args.scales, &args.bridges)?;
+    let parts = args.models.load()?;
     let models = &parts.models;
     let lib = parts.library();
     let settings = args.settings();

@@ -29,32 +29,17 @@ use reprise_motiongraph::{blend_weight, Graph};
 use reprise_stagekit::{StageError, StageResult};
 use reprise_synth::engine::{self, Settings};
 use reprise_synth::script::{Command, Script, Start};
+use reprise_synthesize::ModelInputs;
 use serde::Serialize;
 
 /// `reprise-transitions`: the transition benchmark.
 #[derive(Debug, Clone, Parser, Serialize)]
 #[command(name = "reprise-transitions", version, about)]
 pub struct Args {
-    /// Input: the GPLVM models.
-    #[arg(long, value_name = "FILE")]
+    /// Inputs: the label models, their latents and the bridges.
+    #[command(flatten)]
     #[serde(skip)]
-    pub gplvm_models: PathBuf,
-    /// Input: the GPLVM latents.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub latents: PathBuf,
-    /// Input: the PCA models.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub pca_models: PathBuf,
-    /// Input: the scales.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub scales: PathBuf,
-    /// Input: the bridges.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub bridges: PathBuf,
+    pub models: ModelInputs,
     /// Input: the labeled frames.
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
@@ -175,25 +160,11 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Request>>> {
         return Ok(None);
     }
     let mut provenance = reprise_stagekit::provenance("transitions", env!("CARGO_PKG_VERSION"), args);
-    for (role, p) in [
-        ("gplvm_models", &args.gplvm_models),
-        ("latents", &args.latents),
-        ("pca_models", &args.pca_models),
-        ("scales", &args.scales),
-        ("bridges", &args.bridges),
-        ("labeled_frames", &args.labeled_frames),
-        ("mg_nodes", &args.mg_nodes),
-        ("mg_edges", &args.mg_edges),
-    ] {
+    let own = [("labeled_frames", &args.labeled_frames), ("mg_nodes", &args.mg_nodes), ("mg_edges", &args.mg_edges)];
+    for (role, p) in args.models.roles().into_iter().chain(own) {
         provenance = provenance.with_input(role, p)?;
     }
-    let parts = reprise_synthesize::LibraryParts::load(
-        &args.gplvm_models,
-        &args.latents,
-        &args.pca_models,
-        &args.scales,
-        &args.bridges,
-    )?;
+    let parts = args.models.load()?;
     let models = &parts.models;
     let labeled = LabeledFrames::read(&args.labeled_frames)?;
     let nodes = motion_graph::read_nodes(&args.mg_nodes)?;
