@@ -19,11 +19,14 @@ mod corpus;
 mod keys;
 mod labels;
 mod lattice;
+mod layers;
 mod math;
 mod mesh;
+mod parts;
 mod poses;
 mod rig;
 mod skinning;
+mod touchups;
 
 pub use controls::{ControlSpec, Unit};
 pub use corpus::{

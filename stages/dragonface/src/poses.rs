@@ -1,9 +1,10 @@
 //! Per-label pose libraries and timing styles: what an animator reaches for when keying
-//! "happy", "roar", … Each key pose sets many controls at once: coarse shapes, bones
-//! (head, jaw, ears, brows, lids), fine shapes derived from the coarse expression plus small
-//! hand tweaks, tiny-bone noise (tongue, nostrils) and the snout lattice.
+//! "happy", "roar", … A key pose sets the coarse shapes and the bones (head, jaw, ears,
+//! brows, lids, tongue, nostrils); each part of the face takes only its own controls from
+//! the poses it draws (see `parts`). Fine shapes and the lattice are touch-ups keyed on
+//! their own (see `touchups`).
 
-use crate::controls::{EAR_BONES, FINE_FAMILIES, LATTICE_N, SIDES, TONGUE_BONES};
+use crate::controls::{EAR_BONES, SIDES, TONGUE_BONES};
 use crate::rig::DragonRig;
 use rand::Rng;
 
@@ -59,6 +60,9 @@ pub(crate) fn style(label: &str) -> Style {
     }
 }
 
+/// Share of a key pose's head attitude that the face rig's head bones play.
+pub(crate) const HEAD_SCALE: f64 = 0.25;
+
 /// A pose under construction: a full control vector with name-based setters.
 pub(crate) struct Pose<'a> {
     pub v: Vec<f64>,
@@ -91,12 +95,18 @@ impl<'a> Pose<'a> {
     fn sym(&mut self, tmpl: &str, x: f64) {
         self.both(tmpl, x, x);
     }
-    /// Head orientation, shared between the neck (30 %) and head (70 %) bones (degrees).
+    /// Head orientation, shared between the neck (30 %) and head (70 %) bones (degrees),
+    /// played at [`HEAD_SCALE`] of the attitude named: a face performance moves the head
+    /// a little, the body carries the big turns.
     fn head(&mut self, pitch: f64, yaw: f64, roll: f64) {
         for (ax, v) in [("rx", pitch), ("ry", yaw), ("rz", roll)] {
-            self.set(&format!("neck_{ax}"), 0.3 * v);
-            self.set(&format!("head_{ax}"), 0.7 * v);
+            self.set(&format!("neck_{ax}"), 0.3 * HEAD_SCALE * v);
+            self.set(&format!("head_{ax}"), 0.7 * HEAD_SCALE * v);
         }
+    }
+    /// Head translation (cm) at [`HEAD_SCALE`], along `axis` (`"tx"`, `"ty"`, `"tz"`).
+    fn head_shift(&mut self, axis: &str, cm: f64) {
+        self.set(&format!("head_{axis}"), HEAD_SCALE * cm);
     }
     /// Ear pose: `up` raises (positive) or flattens (negative) the root, `curl` bends each
     /// further bone, `spread` swings the ears apart (degrees).
@@ -173,7 +183,7 @@ pub(crate) fn key_pose(rig: &DragonRig, label: &str, first: bool, rng: &mut impl
                     p.head(u(r, -15.0, -6.0), u(r, -8.0, 8.0), u(r, -6.0, 6.0));
                     p.sym("cheek_raise_{s}", 0.8);
                     p.sym("squint_{s}", 0.6);
-                    p.set("head_ty", u(r, 0.5, 1.5));
+                    p.head_shift("ty", u(r, 0.5, 1.5));
                 }
                 _ => {
                     let side = sign(r);
@@ -206,7 +216,7 @@ pub(crate) fn key_pose(rig: &DragonRig, label: &str, first: bool, rng: &mut impl
                 }
                 1 => {
                     p.sym("snarl_{s}", u(r, 0.2, 0.4));
-                    p.add("head_rx", 4.0);
+                    p.add("head_rx", 4.0 * HEAD_SCALE);
                 }
                 2 => {
                     p.sym("cheek_puff_{s}", u(r, 0.4, 0.8));
@@ -227,7 +237,7 @@ pub(crate) fn key_pose(rig: &DragonRig, label: &str, first: bool, rng: &mut impl
             p.sym("eye_{s}_dilate", u(r, -0.3, -0.1));
             p.ears(u(r, -30.0, -10.0), u(r, -6.0, -2.0), u(r, 5.0, 12.0), r);
             p.head(u(r, 5.0, 15.0), u(r, -10.0, 10.0), u(r, -18.0, 18.0));
-            p.set("head_ty", u(r, -1.5, -0.5));
+            p.head_shift("ty", u(r, -1.5, -0.5));
             match r.gen_range(0..4) {
                 0 => {}
                 1 => {
@@ -261,12 +271,12 @@ pub(crate) fn key_pose(rig: &DragonRig, label: &str, first: bool, rng: &mut impl
             p.ears(u(r, 15.0, 35.0), u(r, 0.0, 5.0), u(r, -10.0, 0.0), r);
             p.brow_bones(u(r, 0.3, 1.0), u(r, 0.2, 0.8), u(r, 0.0, 8.0));
             p.head(u(r, -5.0, 5.0), u(r, -12.0, 12.0), sign(r) * u(r, 10.0, 22.0));
-            p.set("head_tz", u(r, 1.0, 2.5));
+            p.head_shift("tz", u(r, 1.0, 2.5));
             match r.gen_range(0..3) {
                 0 => {}
                 1 => {
                     p.set("squint_L", 0.4);
-                    p.set("head_tz", u(r, 2.0, 3.0));
+                    p.head_shift("tz", u(r, 2.0, 3.0));
                 }
                 _ => {
                     p.sym("nose_wrinkle_{s}", 0.4);
@@ -291,7 +301,7 @@ pub(crate) fn key_pose(rig: &DragonRig, label: &str, first: bool, rng: &mut impl
             let v = if first { 1 } else { [0, 0, 1, 2][r.gen_range(0..4)] };
             match v {
                 0 => {
-                    p.set("jaw_open", u(r, 34.0, 44.0));
+                    p.set("jaw_open", u(r, 32.0, 42.0));
                     p.set("jaw_open_shape", u(r, 0.8, 1.0));
                     p.sym("snarl_{s}", u(r, 0.7, 1.0));
                     p.sym("nose_wrinkle_{s}", u(r, 0.6, 1.0));
@@ -304,14 +314,14 @@ pub(crate) fn key_pose(rig: &DragonRig, label: &str, first: bool, rng: &mut impl
                     p.sym("eye_{s}_dilate", -0.5);
                     p.ears(u(r, -55.0, -35.0), u(r, -6.0, -2.0), u(r, 5.0, 15.0), r);
                     p.head(u(r, -20.0, -10.0), u(r, -10.0, 10.0), u(r, -6.0, 6.0));
-                    p.set("head_tz", u(r, 1.0, 2.5));
+                    p.head_shift("tz", u(r, 1.0, 2.5));
                     p.brow_bones(-1.2, -0.3, -10.0);
                     p.lids(10.0, -8.0, r);
                 }
                 1 => {
                     p.head(u(r, 8.0, 18.0), u(r, -6.0, 6.0), u(r, -4.0, 4.0));
-                    p.set("head_tz", u(r, -2.0, -0.5));
-                    p.set("jaw_open", u(r, 0.0, 3.0));
+                    p.head_shift("tz", u(r, -2.0, -0.5));
+                    p.set("jaw_open", u(r, 4.0, 10.0));
                     p.sym("brow_down_{s}", 0.5);
                     p.sym("snarl_{s}", 0.3);
                     p.sym("cheek_puff_{s}", 0.3);
@@ -361,7 +371,7 @@ pub(crate) fn key_pose(rig: &DragonRig, label: &str, first: bool, rng: &mut impl
                     p.set("lip_funnel", if v == 0 { u(r, 0.2, 0.5) } else { 0.6 });
                     p.ears(u(r, 30.0, 50.0), u(r, 2.0, 6.0), u(r, -8.0, 0.0), r);
                     p.head(u(r, -15.0, -6.0), u(r, -8.0, 8.0), u(r, -5.0, 5.0));
-                    p.set("head_tz", u(r, -2.5, -1.0));
+                    p.head_shift("tz", u(r, -2.5, -1.0));
                     p.sym("eye_{s}_dilate", u(r, 0.6, 0.9));
                     p.brow_bones(u(r, 0.6, 1.1), u(r, 0.4, 0.9), 6.0);
                     if v == 1 {
@@ -381,15 +391,14 @@ pub(crate) fn key_pose(rig: &DragonRig, label: &str, first: bool, rng: &mut impl
         _ => panic!("unknown label {label}"),
     }
     extras(&mut p, label, r);
-    fill_details(&mut p, r);
-    small_bones_and_lattice(&mut p, label, r);
+    tongue_and_nostrils(&mut p, r);
     p.v
 }
 
 /// Small secondary controls an animator touches on most keys, plus occasional label-typical
 /// details (a swallow, rolled lips, jowls, a narrowed mouth).
 fn extras(p: &mut Pose, label: &str, r: &mut impl Rng) {
-    p.set("head_tx", u(r, -0.8, 0.8));
+    p.head_shift("tx", u(r, -0.8, 0.8));
     p.set("jaw_side", u(r, -3.0, 3.0));
     p.set("jaw_twist", u(r, -2.0, 2.0));
     p.set("jaw_fwd", if label == "roar" { u(r, 0.3, 1.0) } else { u(r, -0.3, 0.3) });
@@ -428,147 +437,27 @@ fn extras(p: &mut Pose, label: &str, r: &mut impl Rng) {
     }
 }
 
-fn bump(x: f64, c: f64, w: f64) -> f64 {
-    (1.0 - ((x - c) / w).powi(2)).max(0.0)
-}
-
-/// Fine shapes follow the coarse expression (how a fine layer is keyed in practice) with
-/// ±15 % hand variation and occasional small independent tweaks.
-fn fill_details(p: &mut Pose, rng: &mut impl Rng) {
-    let mut vals: Vec<(String, f64)> = Vec::with_capacity(400);
-    let g = |n: &str| p.get(n);
-    let side = |x: f64| if x >= 0.0 { "L" } else { "R" };
-    for fam in &FINE_FAMILIES {
-        for &(s, _) in fam.sides() {
-            for seg in 0..fam.count {
-                let x = 2.0 * (seg as f64 + 0.5) / fam.count as f64 - 1.0;
-                let a = x.abs();
-                let half = (fam.count / 2).max(1);
-                let row = seg / half;
-                for dir in fam.dirs {
-                    let v = match (fam.prefix, *dir) {
-                        ("lip_upper", d) => {
-                            let s = side(x);
-                            let sm = g(&format!("smile_{s}"));
-                            match d {
-                                "up" => {
-                                    0.5 * sm * a.powf(1.5)
-                                        + 0.5 * g(&format!("upper_lip_raise_{s}")) * bump(a, 0.35, 0.7)
-                                        + 0.6 * g(&format!("snarl_{s}")) * bump(a, 0.45, 0.3)
-                                        + 0.2 * g("lip_funnel")
-                                }
-                                "down" => 0.4 * g(&format!("frown_{s}")) * a.powf(1.5) + 0.4 * g("lip_press"),
-                                "out" => 0.5 * g("lip_pucker") * (1.0 - a) + 0.4 * g("lip_funnel"),
-                                _ => 0.5 * g("lip_roll_upper") + 0.2 * g("lip_press"),
-                            }
-                        }
-                        ("lip_lower", d) => {
-                            let s = side(x);
-                            match d {
-                                "up" => {
-                                    0.4 * g("chin_raise")
-                                        + 0.4 * g("lip_press")
-                                        + 0.3 * g(&format!("smile_{s}")) * a.powf(1.5)
-                                }
-                                "down" => {
-                                    0.5 * g(&format!("lower_lip_depress_{s}")) * bump(a, 0.35, 0.7)
-                                        + 0.3 * g("jaw_open_shape")
-                                        + 0.3 * g(&format!("frown_{s}")) * a
-                                }
-                                "out" => 0.5 * g("lip_pucker") * (1.0 - a) + 0.4 * g("lip_funnel"),
-                                _ => 0.5 * g("lip_roll_lower"),
-                            }
-                        }
-                        ("brow_seg", d) => {
-                            let inner = (1.0 - x) / 2.0;
-                            match d {
-                                "up" => {
-                                    g(&format!("brow_up_{s}")) * (0.5 + 0.3 * (1.0 - inner)) + 0.3 * g("forehead_raise")
-                                }
-                                "down" => g(&format!("brow_down_{s}")) * (0.3 + 0.6 * inner),
-                                _ => g(&format!("brow_squeeze_{s}")) * inner,
-                            }
-                        }
-                        ("lid_upper", "up") => 0.6 * g(&format!("eye_wide_{s}")),
-                        ("lid_upper", _) => {
-                            0.3 * g(&format!("squint_{s}"))
-                                + (g(&format!("eyelid_{s}_upper_rx")) / 60.0).clamp(0.0, 0.5)
-                        }
-                        ("lid_lower", "up") => 0.6 * g(&format!("squint_{s}")) + 0.3 * g(&format!("cheek_raise_{s}")),
-                        ("lid_lower", _) => 0.3 * g(&format!("eye_wide_{s}")),
-                        ("cheek", "out") => {
-                            0.6 * g(&format!("cheek_puff_{s}"))
-                                + if row == 0 { 0.3 * g(&format!("smile_{s}")) } else { 0.0 }
-                        }
-                        ("cheek", _) => 0.6 * g(&format!("cheek_suck_{s}")),
-                        ("snout_ridge", "up") => {
-                            let t = seg as f64 / (fam.count - 1) as f64;
-                            0.25 * (g("nose_wrinkle_L") + g("nose_wrinkle_R")) * t + 0.3 * g("snout_scrunch")
-                        }
-                        ("snout_ridge", _) => {
-                            let t = seg as f64 / (fam.count - 1) as f64;
-                            0.15 * (g("brow_down_L") + g("brow_down_R")) * (1.0 - t)
-                        }
-                        ("nostril_seg", "flare") => 0.4 * (g(&format!("snarl_{s}")) + g(&format!("nose_wrinkle_{s}"))),
-                        ("nostril_seg", _) => 0.3 * g("lip_pucker"),
-                        ("chin", "up") => 0.6 * g("chin_raise"),
-                        ("chin", _) => 0.4 * g("jaw_open_shape"),
-                        ("mouth_corner", "up") => 0.5 * g(&format!("smile_{s}")),
-                        ("mouth_corner", "down") => 0.5 * g(&format!("frown_{s}")),
-                        ("mouth_corner", "in") => 0.5 * g(&format!("mouth_narrow_{s}")) + 0.3 * g("lip_pucker"),
-                        ("mouth_corner", _) => {
-                            0.5 * g(&format!("mouth_wide_{s}")) + 0.3 * g(&format!("lip_stretch_{s}"))
-                        }
-                        ("jawline", "in") => 0.3 * g(&format!("cheek_suck_{s}")) + 0.2 * g(&format!("jowl_{s}")),
-                        ("jawline", _) => 0.5 * g("jaw_clench"),
-                        ("forehead", "up") => 0.5 * g("forehead_raise") + 0.25 * (g("brow_up_L") + g("brow_up_R")),
-                        ("forehead", _) => 0.2 * (g("brow_down_L") + g("brow_down_R")),
-                        (f, d) => unreachable!("fine family {f}/{d}"),
-                    };
-                    let mut v = v * rng.gen_range(0.85..1.15);
-                    if rng.gen_bool(0.12) {
-                        v += rng.gen_range(0.0..0.15);
-                    }
-                    vals.push((fam.name(s, seg, dir), v));
-                }
-            }
-        }
-    }
-    for (n, v) in vals {
-        p.set(&n, v);
-    }
-}
-
-/// Tongue and nostril bones: keyed freely over ±30° (large numeric variance, tiny visible
-/// effect). Snout lattice: only the 16 front points (k = 3) are ever keyed.
-fn small_bones_and_lattice(p: &mut Pose, label: &str, rng: &mut impl Rng) {
+/// The tongue and nostril bones: small swings (±3–6°) keyed on most poses, and a handful
+/// of controls ([`WIDE_SWINGS`]) that animators swing freely over ±30° although they barely
+/// move the mesh — the large-variance, little-effect controls that scaling exists for.
+fn tongue_and_nostrils(p: &mut Pose, r: &mut impl Rng) {
     for i in 1..=TONGUE_BONES {
         for ax in ["rx", "ry", "rz"] {
-            p.set(&format!("tongue_{i:02}_{ax}"), rng.gen_range(-30.0..30.0));
+            p.set(&format!("tongue_{i:02}_{ax}"), u(r, -6.0, 6.0));
         }
     }
     for (s, _) in SIDES {
         for i in 1..=2 {
             for ax in ["rx", "ry", "rz"] {
-                p.set(&format!("nostril_{s}_{i:02}_{ax}"), rng.gen_range(-30.0..30.0));
+                p.set(&format!("nostril_{s}_{i:02}_{ax}"), u(r, -3.0, 3.0));
             }
         }
     }
-    let k = LATTICE_N - 1;
-    for i in 0..LATTICE_N {
-        for j in 0..LATTICE_N {
-            let inner = (1..3).contains(&i) && (1..3).contains(&j);
-            let (bx, by, bz) = match label {
-                "roar" if inner => (0.0, 0.0, 1.2),
-                "grumpy" => (0.0, -0.2, -0.5),
-                "happy" if j == 3 => (0.0, 0.3, 0.0),
-                "surprise" => (0.0, 0.4, 0.2),
-                _ => (0.0, 0.0, 0.0),
-            };
-            let base = format!("lattice_{i}{j}{k}");
-            p.set(&format!("{base}_tx"), bx + rng.gen_range(-0.3..0.3));
-            p.set(&format!("{base}_ty"), by + rng.gen_range(-0.3..0.3));
-            p.set(&format!("{base}_tz"), bz + rng.gen_range(-0.3..0.3));
-        }
+    for name in WIDE_SWINGS {
+        p.set(name, u(r, -30.0, 30.0));
     }
 }
+
+/// The handful of tiny-effect controls keyed over ±30°.
+pub(crate) const WIDE_SWINGS: [&str; 6] =
+    ["tongue_02_rx", "tongue_03_ry", "tongue_01_rz", "nostril_L_01_rx", "nostril_R_02_rz", "nostril_R_01_ry"];

@@ -35,8 +35,10 @@ pub struct DragonRig {
 }
 
 impl DragonRig {
-    /// Version of the rig's mathematics; bump whenever `evaluate` can change its output.
-    pub const VERSION: &'static str = "dragonface-1";
+    /// Version of the rig's mathematics and of its generated corpus (the two travel
+    /// together in the artifacts); bump whenever `evaluate` or the corpus can change.
+    /// `dragonface-2`: the corpus keyed part by part with independent touch-ups.
+    pub const VERSION: &'static str = "dragonface-2";
 
     /// Build the rig. Deterministic in `seed` (head proportions, shape amplitudes and radii).
     pub fn new(seed: u64) -> DragonRig {
