@@ -39,6 +39,15 @@ fn dragon_face_through_label_then_cached_then_one_param_changed() {
     assert_eq!(labeled.frames.rows(), 3745, "labeled frames");
     assert!(labeled.frames.rows() < frames.rows(), "bad takes are excluded");
     assert!(labeled.masked_controls.iter().all(|c| c.starts_with("eye")), "{:?}", labeled.masked_controls);
+
+    // At the paper's 0.85, every label needs more components than the 3-D latent space
+    // (d_gplvm < d_pca), and the threshold, not the `min_components` guard, sets d.
+    let (_, models) = reprise_artifact::pca::read_models(&p.path("artifacts/dragon-face/pca_models.parquet")).unwrap();
+    for m in models.iter().filter(|m| m.variant == reprise_artifact::pca::SCALED) {
+        let d = m.d();
+        let before: f64 = m.explained[..d - 1].iter().sum();
+        assert!(d >= 4 && before < 0.85, "{}: d = {d}, {before:.3} explained by {} components", m.label, d - 1);
+    }
     assert!(!labeled.masked_controls.is_empty());
     let prov =
         Table::read(&p.path("artifacts/dragon-face/labeled_frames.parquet"), reprise_artifact::frames::LABELED_FRAMES)
