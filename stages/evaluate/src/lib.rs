@@ -49,6 +49,9 @@ use serde::Serialize;
 /// Kind of the metrics table.
 pub const METRICS: Kind = Kind { name: "metrics", version: 1 };
 
+/// Which answer of a request a system gave: (frame of the request, latency) in its curves.
+type Pick = fn(&Request) -> Option<(i64, i64)>;
+
 /// `reprise-evaluate`: metrics and the report.
 #[derive(Debug, Clone, Parser, Serialize)]
 #[command(name = "reprise-evaluate", version, about)]
@@ -330,19 +333,21 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         p
     };
     for (system, curves, pick) in [
-        ("reprise", &ours, (|r: &Request| r.reprise.latency) as fn(&Request) -> Option<i64>),
-        ("baseline", &theirs, |r: &Request| r.baseline.latency),
+        ("reprise", &ours, (|r: &Request| r.reprise.latency.map(|l| (r.reprise.asked, l))) as Pick),
+        ("baseline", &theirs, |r: &Request| r.baseline.latency.map(|l| (r.baseline.asked, l))),
     ] {
         let frames = by_script(curves);
         let per: Vec<StageResult<Measured>> = reqs
             .par_iter()
             .filter_map(|r| pick(r).map(|l| (r, l)))
             .filter_map(|(r, l)| frames.get(&r.request).map(|f| (r, l, f)))
-            .map(|(r, l, f)| {
+            .map(|(r, (asked, latency), f)| {
                 let m = meshes(&rig, f)?;
                 let (a, j) = peaks(&m, dim, fps);
-                let lo = (l as usize).saturating_sub(k / 2);
-                let hi = (l as usize + k + k / 2).min(f.len());
+                // The whole answer: from the request to the end of the blend into B.
+                let l = asked + latency;
+                let lo = (asked.max(0) as usize).min(f.len());
+                let hi = (l as usize + k).min(f.len());
                 let pa = a[lo..hi.max(lo)].iter().copied().fold(0.0, f64::max);
                 let pj = j[lo..hi.max(lo)].iter().copied().fold(0.0, f64::max);
                 let plaus: Vec<f64> = f
@@ -374,7 +379,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
                     to: r.to.clone(),
                     accel: pa / acc95,
                     jerk: pj / jerk95,
-                    latency: l as f64 / fps,
+                    latency: latency as f64 / fps,
                     plausibility: plaus,
                 })
             })

@@ -12,16 +12,27 @@
 //!   random force keeps pumping energy into a particle that only the rim of the disc
 //!   slows down). `drag = 0` restores the paper.
 //!
-//! TRANSITION: among the bridges from the current label to the target, the one whose
-//! $x_1$ is nearest the particle; MOVE there (straight, small radius), hover, switch the model,
-//! restart at rest at $x_2$ and hover there while the output blends in rig space from the
-//! last pose of the old model, $p = (1-w)p_{old} + w\,g_{new}(x)$ with
-//! $w = 3s^2 - 2s^3$, $s = f/k$ over $k$ frames. Without a direct bridge it goes through
-//! the third label whose two bridges are closest; without one either, it is an error.
+//! **Commands are event-driven.** Every approach — to a MOVE target, an IDLE pose, a
+//! bridge, a segment's first frame — lays the path point along the way at the latent
+//! **speed limit** (by default each model's own typical speed: the median over its
+//! training segments of $\lVert x_{t+1} - x_t\rVert\cdot\text{fps}$), so a farther target
+//! takes longer; when the path point has arrived, the command waits until the particle is
+//! within the command's radius of the target and no faster than the limit (arrived), and
+//! fails with [`SynthError::Timeout`] after `timeout_seconds`. Nothing runs on a clock
+//! but IDLE's own duration, PLAY's frames and the blend.
 //!
-//! PLAY: reach the segment's first latent (small radius), hover, then follow its embedding
-//! one training frame per output frame, entering at the segment's own speed, with a
-//! stiffer constraint (`play_omega0`).
+//! TRANSITION: among the bridges from the current label to the target, the one whose
+//! $x_1$ is nearest the particle (straight-line latent distance, the path it takes); go
+//! there and arrive; then, on arrival, idle both models' particles — the old one at $x_1$,
+//! the new one from rest at $x_2$ — for `blend_frames` frames while the output blends the
+//! two live rig-space streams, $p = (1-w)\,g_{old}(x_{old}(t)) + w\,g_{new}(x_{new}(t))$,
+//! $w = 3s^2 - 2s^3$, $s = f/k$; the new model's particle carries on. Without a direct
+//! bridge it goes through the third label whose two bridges are closest; without one
+//! either, it is an error.
+//!
+//! PLAY: reach the segment's first latent (arrive within the tight radius), then follow its
+//! embedding one training frame per output frame, entering at the segment's own speed,
+//! with a stiffer constraint (`play_omega0`).
 
 use reprise_numerics::gplvm::LatentModel;
 
@@ -48,6 +59,20 @@ pub enum SynthError {
         label: String,
         /// What is wrong.
         what: String,
+    },
+    /// A target not reached in time.
+    #[error("label `{label}`: {what} not reached within {seconds} s (the particle is {distance:.3} latent units away, radius {radius})")]
+    Timeout {
+        /// Current label.
+        label: String,
+        /// What was being reached.
+        what: String,
+        /// The time-out.
+        seconds: f64,
+        /// Distance left.
+        distance: f64,
+        /// The arrival radius.
+        radius: f64,
     },
     /// No bridge connects two labels, directly or through a third.
     #[error("no bridge from `{from}` to `{to}`, directly or through a third label")]
@@ -128,8 +153,13 @@ pub struct Settings {
     pub random_features: usize,
     /// Linear drag $c$ (s⁻¹).
     pub drag: f64,
-    /// Seconds to reach a bridge or a segment start.
-    pub reach_seconds: f64,
+    /// Latent speed limit (latent units per second) of every approach; `None`: each
+    /// model's own typical speed ([`typical_speed`]) times `speed_factor`.
+    pub speed: Option<f64>,
+    /// Multiplier of the typical speed when `speed` is `None` (default 1).
+    pub speed_factor: f64,
+    /// Seconds an approach may take, path and arrival, before it fails.
+    pub timeout_seconds: f64,
     /// Default blend length (frames).
     pub blend_frames: usize,
     /// MOVE graph: neighbours per point and cost exponent.
@@ -154,7 +184,9 @@ impl Default for Settings {
             random_gamma: 0.05,
             random_features: 32,
             drag: 2.0,
-            reach_seconds: 0.5,
+            speed: None,
+            speed_factor: 1.0,
+            timeout_seconds: 10.0,
             blend_frames: 12,
             graph_k: 8,
             graph_cost: EdgeCost::Power(4.0),
@@ -169,9 +201,10 @@ pub struct Frame {
     pub frame: usize,
     /// Seconds.
     pub time: f64,
-    /// Index of the model in the library.
+    /// Index of the model in the library (during a transition's blend, the model blended
+    /// into).
     pub model: usize,
-    /// Latent point.
+    /// Latent point (of that model's particle).
     pub x: Vec<f64>,
     /// Rig controls (blended across switches).
     pub controls: Vec<f64>,
@@ -179,21 +212,50 @@ pub struct Frame {
     pub command: usize,
 }
 
-struct Run<'l, 'a> {
-    lib: &'l Library<'a>,
-    set: Settings,
+/// The median latent speed of a model's training data (latent units per second):
+/// $\operatorname{median}\lVert x_{t+1} - x_t\rVert\cdot\text{fps}$ over consecutive frames of
+/// each segment; `None` without two consecutive frames.
+pub fn typical_speed(frames: &[TrainingFrame], fps: f64) -> Option<f64> {
+    let mut order: Vec<&TrainingFrame> = frames.iter().collect();
+    order.sort_by_key(|f| (f.segment, f.frame));
+    let mut steps: Vec<f64> = order
+        .windows(2)
+        .filter(|w| w[0].segment == w[1].segment && w[1].frame == w[0].frame + 1)
+        .map(|w| dist(&w[0].x, &w[1].x) * fps)
+        .collect();
+    if steps.is_empty() {
+        return None;
+    }
+    steps.sort_by(f64::total_cmp);
+    Some(steps[steps.len() / 2])
+}
+
+/// One particle in one model: where it is, and the path point it follows.
+#[derive(Debug, Clone)]
+struct Stream {
     model: usize,
     state: State,
     target: Vec<f64>,
+}
+
+/// The incoming stream of a blend reads the random force this many seconds later, so the
+/// two particles do not jitter in lockstep.
+const INCOMING_TIME_OFFSET: f64 = 1000.0;
+
+struct Run<'l, 'a> {
+    lib: &'l Library<'a>,
+    set: Settings,
+    /// Speed limit per model (latent units per second).
+    speed: Vec<f64>,
+    cur: Stream,
     out: Vec<Frame>,
     random: RandomForce,
-    blend: Option<(Vec<f64>, usize, usize)>,
     command: usize,
 }
 
 impl<'l, 'a> Run<'l, 'a> {
     fn label(&self) -> &str {
-        &self.lib.models[self.model].label
+        &self.lib.models[self.cur.model].label
     }
 
     fn model_index(&self, label: &str) -> Result<usize, SynthError> {
@@ -205,7 +267,7 @@ impl<'l, 'a> Run<'l, 'a> {
 
     fn resolve(&self, pose: &Pose) -> Result<Vec<f64>, SynthError> {
         let bad = |what: String| SynthError::BadPose { label: self.label().into(), what };
-        let q = self.lib.models[self.model].q();
+        let q = self.lib.models[self.cur.model].q();
         if let Some(x) = &pose.latent {
             if x.len() != q || x.iter().any(|v| !v.is_finite()) {
                 return Err(bad(format!("a latent pose needs {q} finite values, got {x:?}")));
@@ -214,7 +276,7 @@ impl<'l, 'a> Run<'l, 'a> {
         }
         let frame =
             pose.frame.ok_or_else(|| bad("a pose needs `frame` (with `segment` or `clip`) or `latent`".into()))?;
-        self.lib.frames[self.model]
+        self.lib.frames[self.cur.model]
             .iter()
             .find(|f| {
                 f.frame == frame
@@ -227,16 +289,17 @@ impl<'l, 'a> Run<'l, 'a> {
             })
     }
 
-    fn controls(&self, x: &[f64]) -> Vec<f64> {
-        let m = self.lib.models[self.model];
+    fn controls(&self, model: usize, x: &[f64]) -> Vec<f64> {
+        let m = self.lib.models[model];
         let mut p = vec![0.0; m.controls()];
         m.controls_into(x, &mut vec![0.0; m.d()], &mut p);
         p
     }
 
-    /// Steps one frame toward `next` with radius `r` and records it.
-    fn frame(&mut self, next: &[f64], r: f64) {
-        let m = self.lib.models[self.model];
+    /// Steps `stream` one frame toward the path point `next` with radius `r`, reading the
+    /// random force `time_offset` seconds later; returns its rig controls.
+    fn step(&self, stream: &mut Stream, next: &[f64], r: f64, time_offset: f64) -> Vec<f64> {
+        let m = self.lib.models[stream.model];
         let set = self.set;
         let dt = 1.0 / set.fps;
         let t0 = self.out.len() as f64 * dt;
@@ -247,49 +310,95 @@ impl<'l, 'a> Run<'l, 'a> {
             let p = m.density.relative(x, &mut grad);
             let norm = grad.iter().map(|g| g * g).sum::<f64>().sqrt();
             let s = set.density_force / (1.0 + ((p - set.density_threshold) / set.density_width).exp());
-            random.at(t, &mut rf);
+            random.at(t + time_offset, &mut rf);
             for k in 0..out.len() {
                 let dens = if norm > 1e-300 && s.is_finite() { s * grad[k] / norm } else { 0.0 };
                 out[k] = dens + rf[k] - set.drag * v[k];
             }
         };
-        let prev = self.target.clone();
-        step_frame(&set.particle, &mut self.state, Leg { t0, dt, from: &prev, to: next, radius: r }, &mut force);
-        self.target = next.to_vec();
-        let mut controls = self.controls(&self.state.x);
-        if let Some((from, done, total)) = self.blend.take() {
-            let s = (done + 1) as f64 / total as f64;
-            let w = s * s * (3.0 - 2.0 * s);
-            controls.iter_mut().zip(&from).for_each(|(c, f)| *c = (1.0 - w) * f + w * *c);
-            if done + 1 < total {
-                self.blend = Some((from, done + 1, total));
-            }
-        }
+        let prev = std::mem::replace(&mut stream.target, next.to_vec());
+        step_frame(&set.particle, &mut stream.state, Leg { t0, dt, from: &prev, to: next, radius: r }, &mut force);
+        self.controls(stream.model, &stream.state.x)
+    }
+
+    fn push(&mut self, controls: Vec<f64>) {
+        let dt = 1.0 / self.set.fps;
         self.out.push(Frame {
             frame: self.out.len(),
-            time: t0 + dt,
-            model: self.model,
-            x: self.state.x.clone(),
+            time: (self.out.len() + 1) as f64 * dt,
+            model: self.cur.model,
+            x: self.cur.state.x.clone(),
             controls,
             command: self.command,
         });
+    }
+
+    /// Steps the current particle one frame toward `next` and records it.
+    fn frame(&mut self, next: &[f64], r: f64) {
+        let mut cur = self.cur.clone();
+        let controls = self.step(&mut cur, next, r, 0.0);
+        self.cur = cur;
+        self.push(controls);
     }
 
     fn frames_for(&self, seconds: f64) -> usize {
         ((seconds * self.set.fps).round() as usize).max(1)
     }
 
-    fn go(&mut self, to: &[f64], frames: usize, kind: PathKind, r: f64) {
-        let m = self.lib.models[self.model];
-        let poly = match kind {
-            PathKind::Straight => vec![self.target.clone(), to.to_vec()],
-            PathKind::Graph => {
-                graph_path(m.predictor.x(), m.q(), &self.target, to, self.set.graph_k, self.set.graph_cost)
-            }
-        };
-        for p in resample(&poly, frames) {
-            self.frame(&p, r);
+    /// The path point's step per frame: the speed limit, or slower when `min_seconds`
+    /// asks the polyline to take at least that long.
+    fn step_length(&self, length: f64, min_seconds: Option<f64>) -> f64 {
+        let limit = self.speed[self.cur.model] / self.set.fps;
+        match min_seconds {
+            Some(s) if s > 0.0 => limit.min(length / (s * self.set.fps)),
+            _ => limit,
         }
+    }
+
+    /// Lays the path point along `poly` at the speed limit (or slower, see
+    /// [`Run::step_length`]) with radius `r`, then waits for the particle to arrive within
+    /// `r` of the end, moving no faster than the limit; errs after `timeout_seconds`.
+    fn approach(&mut self, poly: &[Vec<f64>], r: f64, min_seconds: Option<f64>, what: &str) -> Result<(), SynthError> {
+        let length: f64 = poly.windows(2).map(|w| dist(&w[0], &w[1])).sum();
+        let step = self.step_length(length, min_seconds).max(1e-12);
+        let frames = (length / step).ceil() as usize;
+        let budget = self.frames_for(self.set.timeout_seconds);
+        let end = poly.last().cloned().unwrap_or_else(|| self.cur.target.clone());
+        let fail = |run: &Self| SynthError::Timeout {
+            label: run.label().into(),
+            what: what.into(),
+            seconds: run.set.timeout_seconds,
+            distance: dist(&run.cur.state.x, &end),
+            radius: r,
+        };
+        if frames > budget {
+            return Err(fail(self));
+        }
+        if frames > 0 {
+            for p in resample(poly, frames) {
+                self.frame(&p, r);
+            }
+        }
+        let limit = self.speed[self.cur.model];
+        let mut spent = frames;
+        while !(dist(&self.cur.state.x, &end) <= r && norm(&self.cur.state.v) <= limit) {
+            if spent >= budget {
+                return Err(fail(self));
+            }
+            self.frame(&end, r);
+            spent += 1;
+        }
+        Ok(())
+    }
+
+    fn go(&mut self, to: &[f64], kind: PathKind, r: f64, min_seconds: Option<f64>, what: &str) -> Result<(), SynthError> {
+        let m = self.lib.models[self.cur.model];
+        let from = self.cur.target.clone();
+        let poly = match kind {
+            PathKind::Straight => vec![from, to.to_vec()],
+            PathKind::Graph => graph_path(m.predictor.x(), m.q(), &from, to, self.set.graph_k, self.set.graph_cost),
+        };
+        self.approach(&poly, r, min_seconds, what)
     }
 
     fn hold(&mut self, at: &[f64], frames: usize, r: f64) {
@@ -303,21 +412,27 @@ impl<'l, 'a> Run<'l, 'a> {
             .links
             .iter()
             .filter(|l| l.from == from && l.to == to)
-            .min_by(|a, b| dist(&a.x1, &self.state.x).total_cmp(&dist(&b.x1, &self.state.x)))
+            .min_by(|a, b| dist(&a.x1, &self.cur.state.x).total_cmp(&dist(&b.x1, &self.cur.state.x)))
     }
 
+    /// Reach the nearest bridge to `to`, then blend the two live streams over `blend`
+    /// frames while both particles idle at the bridge's ends.
     fn switch(&mut self, to: usize, blend: usize) -> Result<(), SynthError> {
         let (from, target) = (self.label().to_string(), self.lib.models[to].label.clone());
-        let link = self.best_link(&from, &target).cloned().ok_or(SynthError::NoBridge { from, to: target })?;
-        let reach = self.frames_for(self.set.reach_seconds);
-        self.go(&link.x1, reach, PathKind::Straight, self.set.tight_radius);
-        self.hold(&link.x1, reach.div_ceil(2), self.set.tight_radius);
-        let last = self.out.last().map(|f| f.controls.clone()).unwrap_or_else(|| self.controls(&self.state.x));
-        self.model = to;
-        self.state = State::at_rest(&link.x2);
-        self.target = link.x2.clone();
-        self.blend = Some((last, 0, blend));
-        self.hold(&link.x2, blend, self.set.tight_radius);
+        let link = self.best_link(&from, &target).cloned().ok_or(SynthError::NoBridge { from, to: target.clone() })?;
+        let r = self.set.tight_radius;
+        self.go(&link.x1, PathKind::Straight, r, None, &format!("the bridge to `{target}`"))?;
+        let mut old = self.cur.clone();
+        let mut new = Stream { model: to, state: State::at_rest(&link.x2), target: link.x2.clone() };
+        for f in 0..blend {
+            let a = self.step(&mut old, &link.x1, r, 0.0);
+            let b = self.step(&mut new, &link.x2, r, INCOMING_TIME_OFFSET);
+            let s = (f + 1) as f64 / blend as f64;
+            let w = s * s * (3.0 - 2.0 * s);
+            self.cur = new.clone();
+            self.push(a.iter().zip(&b).map(|(a, b)| (1.0 - w) * a + w * b).collect());
+        }
+        self.cur = new;
         Ok(())
     }
 
@@ -332,7 +447,7 @@ impl<'l, 'a> Run<'l, 'a> {
             self.lib.links.iter().filter(|l| l.from == x && l.to == y).map(|l| l.distance).fold(f64::INFINITY, f64::min)
         };
         (0..self.lib.models.len())
-            .filter(|&c| c != self.model && c != to)
+            .filter(|&c| c != self.cur.model && c != to)
             .map(|c| {
                 let cl = self.lib.models[c].label.as_str();
                 (best(a, cl) + best(cl, b), c)
@@ -349,45 +464,40 @@ impl<'l, 'a> Run<'l, 'a> {
                 let r = radius.unwrap_or(self.set.radius);
                 let total = self.frames_for(*duration);
                 let points: Vec<Vec<f64>> = if poses.is_empty() {
-                    vec![self.target.clone()]
+                    vec![self.cur.target.clone()]
                 } else {
                     poses.iter().map(|p| self.resolve(p)).collect::<Result<_, _>>()?
                 };
                 let per = hover.map_or(total.div_ceil(points.len()), |h| self.frames_for(h));
-                let mut done = 0;
+                let start = self.out.len();
                 for p in points.iter().cycle() {
+                    let done = self.out.len() - start;
                     if done >= total {
                         break;
                     }
-                    let reach = if dist(p, &self.target) > 1e-12 {
-                        self.frames_for(self.set.reach_seconds).min(total - done)
-                    } else {
-                        0
-                    };
-                    self.go(p, reach.max(1), PathKind::Straight, r);
-                    done += reach.max(1);
-                    let n = per.min(total.saturating_sub(done));
-                    self.hold(p, n, r);
-                    done += n;
+                    if dist(p, &self.cur.target) > 1e-12 {
+                        self.go(p, PathKind::Straight, r, None, "an idle pose")?;
+                    }
+                    let done = self.out.len() - start;
+                    self.hold(p, per.min(total.saturating_sub(done)).max(1), r);
                 }
             }
             Command::Move { to, duration, path, radius } => {
                 let x = self.resolve(to)?;
                 let r = radius.unwrap_or(self.set.radius);
-                let n = self.frames_for(*duration);
-                self.go(&x, n, *path, r);
+                self.go(&x, *path, r, Some(*duration), "the move's target")?;
             }
             Command::Transition { to, blend_frames } => {
                 let to = self.model_index(to)?;
-                if to != self.model {
+                if to != self.cur.model {
                     for hop in self.route(to)? {
-                        self.switch(hop, blend_frames.unwrap_or(self.set.blend_frames))?;
+                        self.switch(hop, blend_frames.unwrap_or(self.set.blend_frames).max(1))?;
                     }
                 }
             }
             Command::Play { segment, clip } => {
                 let label = self.label().to_string();
-                let frames: Vec<&TrainingFrame> = self.lib.frames[self.model]
+                let frames: Vec<&TrainingFrame> = self.lib.frames[self.cur.model]
                     .iter()
                     .filter(|f| segment.is_none_or(|s| s == f.segment) && clip.as_ref().is_none_or(|c| c == &f.clip))
                     .collect();
@@ -401,13 +511,11 @@ impl<'l, 'a> Run<'l, 'a> {
                 let mut seq: Vec<&TrainingFrame> = frames.iter().copied().filter(|f| f.segment == seg).collect();
                 seq.sort_by_key(|f| f.frame);
                 let xs: Vec<Vec<f64>> = seq.iter().map(|f| f.x.clone()).collect();
-                let reach = self.frames_for(self.set.reach_seconds);
-                self.go(&xs[0], reach, PathKind::Straight, self.set.tight_radius);
-                self.hold(&xs[0], reach.div_ceil(2), self.set.tight_radius);
+                self.go(&xs[0], PathKind::Straight, self.set.tight_radius, None, "the segment's first frame")?;
                 // Enter the segment at its own speed.
                 if let Some(x1) = xs.get(1) {
                     let fps = self.set.fps;
-                    self.state.v.iter_mut().zip(x1.iter().zip(&xs[0])).for_each(|(v, (b, a))| *v = (b - a) * fps);
+                    self.cur.state.v.iter_mut().zip(x1.iter().zip(&xs[0])).for_each(|(v, (b, a))| *v = (b - a) * fps);
                 }
                 let normal = self.set.particle.omega0;
                 self.set.particle.omega0 = self.set.play_omega0;
@@ -421,6 +529,10 @@ impl<'l, 'a> Run<'l, 'a> {
     }
 }
 
+fn norm(a: &[f64]) -> f64 {
+    a.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
 fn dist(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
 }
@@ -428,21 +540,24 @@ fn dist(a: &[f64], b: &[f64]) -> f64 {
 /// Runs a script: one frame per $1/\text{fps}$ seconds from its start pose.
 pub fn run(lib: &Library<'_>, script: &Script, set: &Settings) -> Result<Vec<Frame>, SynthError> {
     let q = lib.models.first().map_or(0, |m| m.q());
+    let speed = lib
+        .frames
+        .iter()
+        .map(|f| set.speed.or_else(|| typical_speed(f, set.fps).map(|v| v * set.speed_factor)).unwrap_or(1.0))
+        .collect();
     let mut run = Run {
         lib,
         set: *set,
-        model: 0,
-        state: State::at_rest(&vec![0.0; q]),
-        target: vec![0.0; q],
+        speed,
+        cur: Stream { model: 0, state: State::at_rest(&vec![0.0; q]), target: vec![0.0; q] },
         out: Vec::new(),
         random: RandomForce::new(q, set.random_variance, set.random_gamma, set.random_features, script.seed),
-        blend: None,
         command: 0,
     };
-    run.model = run.model_index(&script.start.label)?;
+    run.cur.model = run.model_index(&script.start.label)?;
     let x0 = run.resolve(&script.start.pose())?;
-    run.state = State::at_rest(&x0);
-    run.target = x0;
+    run.cur.state = State::at_rest(&x0);
+    run.cur.target = x0;
     for (i, c) in script.commands.iter().enumerate() {
         run.command = i;
         run.execute(c)?;
@@ -551,6 +666,135 @@ mod tests {
             // Without the blend the switch would jump by the offset between the models (≈0.7).
             assert!(across < 0.15, "largest step across the blend {across}");
         });
+    }
+
+    /// Frames from the TRANSITION command to the first frame of the target model.
+    fn latency(out: &[Frame], command: usize, to: usize) -> usize {
+        let start = out.iter().position(|f| f.command == command).expect("the command ran");
+        out.iter().position(|f| f.model == to).expect("switched") - start + 1
+    }
+
+    /// With a fixed speed limit, a bridge farther from the particle takes longer to reach:
+    /// the latency grows with the latent distance (by about distance / speed).
+    #[test]
+    fn latency_grows_with_the_distance_to_the_bridge() {
+        let set = Settings { speed: Some(1.0), random_variance: 0.0, ..Default::default() };
+        let cmds = vec![Command::Transition { to: "b".into(), blend_frames: Some(12) }];
+        // The start frame is at (1.5, 0); bridges at growing distances along the arc.
+        let mut last = 0;
+        for (i, k) in [5usize, 12, 20, 30].into_iter().enumerate() {
+            let a = k as f64 * 0.08;
+            let x1 = [a.cos() * 1.5, a.sin() * 1.5];
+            let d = dist(&x1, &[1.5, 0.0]);
+            let lat = with_lib(vec![link("a", "b", x1, x1)], |lib| latency(&run(lib, &script(cmds.clone(), 0), &set).unwrap(), 0, 1));
+            let expect = d * 24.0;
+            assert!(lat as f64 >= expect && (lat as f64) < expect + 24.0, "bridge {d:.2} away: {lat} frames");
+            if i > 0 {
+                assert!(lat > last, "{lat} after {last}");
+            }
+            last = lat;
+        }
+        // Twice the speed, about half the latency.
+        let x1 = [(30.0f64 * 0.08).cos() * 1.5, (30.0f64 * 0.08).sin() * 1.5];
+        let fast = with_lib(vec![link("a", "b", x1, x1)], |lib| {
+            latency(&run(lib, &script(cmds.clone(), 0), &Settings { speed: Some(2.0), ..set }).unwrap(), 0, 1)
+        });
+        assert!((fast as f64) < 0.65 * last as f64, "{fast} vs {last}");
+    }
+
+    /// The model switches only once the particle is within the tight radius of the bridge
+    /// and no faster than the speed limit — with the random force on.
+    #[test]
+    fn the_switch_happens_on_arrival() {
+        let set = Settings { speed: Some(1.5), ..Default::default() };
+        let cmds = vec![Command::Transition { to: "b".into(), blend_frames: Some(12) }];
+        for seed in 0..8 {
+            let x1 = [(25.0f64 * 0.08).cos() * 1.5, (25.0f64 * 0.08).sin() * 1.5];
+            let out = with_lib(vec![link("a", "b", x1, x1)], |lib| run(lib, &script(cmds.clone(), seed), &set).unwrap());
+            let sw = out.iter().position(|f| f.model == 1).unwrap();
+            let before = &out[sw - 1];
+            assert!(dist(&before.x, &x1) <= set.tight_radius, "seed {seed}: switched {} away", dist(&before.x, &x1));
+            let speed = dist(&out[sw - 1].x, &out[sw - 2].x) * set.fps;
+            assert!(speed <= 1.5 * 1.2, "seed {seed}: arrived at {speed} latent units/s");
+        }
+    }
+
+    /// The blend runs between two live streams: the output is continuous in position and
+    /// velocity across it (no step, no kink) — a hard switch between the models would jump
+    /// by their offset (≈ 0.7), and a blend from a frozen pose would kink its velocity.
+    #[test]
+    fn the_blend_is_smooth_between_live_streams() {
+        let set = Settings { speed: Some(1.5), ..Default::default() };
+        let x1 = [0.8, 1.27];
+        let cmds = vec![
+            Command::Idle { duration: 0.5, radius: None, poses: vec![], hover: None },
+            Command::Transition { to: "b".into(), blend_frames: Some(12) },
+            Command::Idle { duration: 1.0, radius: None, poses: vec![], hover: None },
+        ];
+        for seed in 0..6 {
+            let out = with_lib(vec![link("a", "b", x1, x1)], |lib| run(lib, &script(cmds.clone(), seed), &set).unwrap());
+            let sw = out.iter().position(|f| f.model == 1).unwrap();
+            let vel = |i: usize| -> Vec<f64> { out[i].controls.iter().zip(&out[i - 1].controls).map(|(a, b)| a - b).collect() };
+            let acc = |i: usize| dist(&vel(i + 1), &vel(i));
+            let across = (sw - 1..sw + 13).map(acc).fold(0.0, f64::max);
+            let elsewhere = (2..sw - 2).chain(sw + 14..out.len() - 1).map(acc).fold(0.0, f64::max);
+            let step = (sw..sw + 12).map(|i| norm(&vel(i))).fold(0.0, f64::max);
+            assert!(step < 0.12, "seed {seed}: largest step across the blend {step}");
+            assert!(across < elsewhere + 0.05, "seed {seed}: acceleration {across} across the blend, {elsewhere} elsewhere");
+        }
+        // The outgoing stream is live: what the blend took from it, (p − w g_b(x_b)) / (1 − w),
+        // keeps moving during the blend (a frozen last pose would make it constant).
+        let long = vec![Command::Transition { to: "b".into(), blend_frames: Some(24) }];
+        with_lib(vec![link("a", "b", x1, x1)], |lib| {
+            let out = run(lib, &script(long, 1), &Settings { random_variance: 4.0, ..set }).unwrap();
+            let sw = out.iter().position(|f| f.model == 1).unwrap();
+            let mut g = vec![0.0; 3];
+            let outgoing: Vec<Vec<f64>> = (0..16)
+                .map(|f| {
+                    let s = (f + 1) as f64 / 24.0;
+                    let w = s * s * (3.0 - 2.0 * s);
+                    lib.models[1].controls_into(&out[sw + f].x, &mut [0.0; 3], &mut g);
+                    out[sw + f].controls.iter().zip(&g).map(|(p, b)| (p - w * b) / (1.0 - w)).collect()
+                })
+                .collect();
+            let moved = outgoing.iter().map(|a| dist(a, &outgoing[0])).fold(0.0, f64::max);
+            assert!(moved > 1e-3, "the outgoing stream moved {moved}");
+        });
+    }
+
+    /// MOVE lays its path at the speed limit: through the training graph (along the arc)
+    /// it takes longer than the straight chord; an unreachable target times out clearly.
+    #[test]
+    fn move_takes_as_long_as_its_path() {
+        let set = Settings { speed: Some(1.0), random_variance: 0.0, ..Default::default() };
+        let to = Pose { segment: Some(1), clip: None, frame: Some(19), latent: None };
+        let frames = |path: PathKind| {
+            let cmds = vec![Command::Move { to: to.clone(), duration: 0.1, path, radius: Some(0.1) }];
+            with_lib(vec![], |lib| run(lib, &script(cmds, 0), &set).unwrap().len())
+        };
+        let (graph, straight) = (frames(PathKind::Graph), frames(PathKind::Straight));
+        // The arc from frame 0 to frame 39 spans 3.12 rad of a 1.5 radius: 4.68 vs a 3.0 chord.
+        assert!(graph as f64 > 1.4 * straight as f64, "graph {graph} frames, straight {straight}");
+        let far = vec![Command::Move {
+            to: Pose { segment: None, clip: None, frame: None, latent: Some(vec![400.0, 0.0]) },
+            duration: 1.0,
+            path: PathKind::Straight,
+            radius: None,
+        }];
+        let e = with_lib(vec![], |lib| run(lib, &script(far, 0), &set).unwrap_err());
+        assert!(matches!(e, SynthError::Timeout { .. }), "{e}");
+        assert!(e.to_string().contains("not reached within 10 s"), "{e}");
+    }
+
+    /// The default speed limit is the model's own typical training speed.
+    #[test]
+    fn typical_speed_is_the_median_training_step() {
+        with_lib(vec![], |lib| {
+            // Consecutive arc points are 0.08 rad apart on a radius of 1.5: 0.12 per frame.
+            let v = typical_speed(&lib.frames[0], 24.0).unwrap();
+            assert!((v - 2.0 * 1.5 * (0.04f64).sin() * 24.0).abs() < 1e-9, "{v}");
+        });
+        assert_eq!(typical_speed(&[], 24.0), None);
     }
 
     /// No direct bridge: the route goes through the third label; with none, a clear error.

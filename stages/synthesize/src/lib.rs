@@ -87,6 +87,16 @@ pub struct Args {
     /// TRANSITION blend length in frames.
     #[arg(long, default_value_t = 12)]
     pub blend_frames: usize,
+    /// Latent speed limit of every approach (latent units per second); default: each
+    /// model's median training speed times --speed-factor.
+    #[arg(long)]
+    pub speed: Option<f64>,
+    /// Multiplier of the models' median training speed (without --speed).
+    #[arg(long, default_value_t = 1.0)]
+    pub speed_factor: f64,
+    /// Seconds an approach (to a target, a bridge, a segment) may take before it fails.
+    #[arg(long, default_value_t = 10.0)]
+    pub timeout: f64,
     /// MOVE graph edge cost.
     #[arg(long, value_enum, default_value_t = Cost::Power)]
     pub graph_cost: Cost,
@@ -121,6 +131,9 @@ impl Args {
             random_gamma: self.random_gamma,
             drag: self.drag,
             blend_frames: self.blend_frames,
+            speed: self.speed,
+            speed_factor: self.speed_factor,
+            timeout_seconds: self.timeout,
             graph_cost: match self.graph_cost {
                 Cost::Power => EdgeCost::Power(self.graph_power),
                 Cost::InversePower => EdgeCost::InversePower(self.graph_power),
@@ -140,13 +153,16 @@ impl Args {
             && pos(self.random_gamma)
             && self.drag >= 0.0
             && self.blend_frames >= 1
+            && self.speed.is_none_or(pos)
+            && pos(self.speed_factor)
+            && pos(self.timeout)
             && pos(self.graph_power);
         if ok {
             Ok(())
         } else {
             Err(StageError::Config(
-                "need positive --fps, --radius, --omega0, --random-gamma, --graph-power; --substeps and \
-                 --blend-frames >= 1; non-negative forces and drag"
+                "need positive --fps, --radius, --omega0, --random-gamma, --graph-power, --speed, \
+                 --speed-factor, --timeout; --substeps and --blend-frames >= 1; non-negative forces and drag"
                     .into(),
             ))
         }

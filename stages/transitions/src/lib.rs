@@ -13,7 +13,8 @@
 //! reprise also answers every request once more with another seed (`reprise_reseeded`),
 //! for the variety metric. Both write curves (scripts `r<id>`); a frame's `model` is the label being played (for
 //! blended frames, the label blended into). Latency: frames from the request to the
-//! first frame of B.
+//! first frame of B — for reprise from the end of its hold (the TRANSITION command), for
+//! the baseline from its start frame; the hold before the request counts for no one.
 
 use std::path::PathBuf;
 
@@ -121,7 +122,15 @@ impl Baseline<'_> {
             let edge = &edges[e];
             let (from, dest) = (edge.from as usize, edge.to as usize);
             if edge.kind == "transition" {
-                for p in 0..k {
+                // The k blended frames replace A_i … A_{i+k−1} (method.md §5.3): A_i, just
+                // played, gives way to the first of them — unless it is the request's own
+                // frame, already shown, whose blended twin (p = 0, still almost all A_i)
+                // would only stall the motion.
+                let first = if out.len() == 1 { 1 } else { 0 };
+                if first == 0 {
+                    out.pop();
+                }
+                for p in first..k {
                     let (a, b) = (row(from + p), row(dest - k + p));
                     let w = blend_weight(p as f64, k);
                     out.push((
@@ -147,8 +156,11 @@ impl Baseline<'_> {
     }
 }
 
-fn latency(p: &Played, to: &str) -> Option<i64> {
-    p.iter().position(|(l, _)| l == to).map(|i| i as i64)
+/// Frames from the request to the first frame of `to`: `request` is the index of the
+/// last frame before the request (the start pose for the baseline, the end of the hold
+/// for reprise), so a hold before the request counts for no one.
+fn latency(p: &Played, to: &str, request: usize) -> Option<i64> {
+    p.iter().position(|(l, _)| l == to).map(|i| i as i64 - request as i64)
 }
 
 /// Runs the stage; returns the requests.
@@ -216,17 +228,24 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Request>>> {
                 },
                 commands: vec![hold.clone(), Command::Transition { to: b.clone(), blend_frames: None }, hold],
             };
+            // The request comes after the hold: at the hold's last frame.
             let play = |script: &Script| {
                 engine::run(&lib, script, &settings)
-                    .map(|f| f.into_iter().map(|f| (labels[f.model].clone(), f.controls)).collect::<Played>())
+                    .map(|f| {
+                        let asked = f.iter().position(|f| f.command == 1).map_or(0, |i| i.saturating_sub(1));
+                        (asked, f.into_iter().map(|f| (labels[f.model].clone(), f.controls)).collect::<Played>())
+                    })
                     .map_err(|e| e.to_string())
             };
-            let ours = play(&script);
-            let again = play(&Script { seed: script.seed.wrapping_add(RESEED), ..script.clone() });
+            let (ours, ours_asked) = match play(&script) {
+                Ok((asked, p)) => (Ok(p), asked),
+                Err(e) => (Err(e), 0),
+            };
+            let again = play(&Script { seed: script.seed.wrapping_add(RESEED), ..script.clone() }).map(|(_, p)| p);
             let theirs = base.answer(*r, b);
-            let answer = |p: &Result<Played, String>| match p {
-                Ok(p) => Answer { latency: latency(p, b), error: String::new() },
-                Err(e) => Answer { latency: None, error: e.clone() },
+            let answer = |p: &Result<Played, String>, request: usize| match p {
+                Ok(p) => Answer { latency: latency(p, b, request), asked: request as i64, error: String::new() },
+                Err(e) => Answer { latency: None, asked: 0, error: e.clone() },
             };
             let req = Request {
                 request: *id as i64,
@@ -235,8 +254,8 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Request>>> {
                 segment_id: labeled.segment_id[*r],
                 clip: labeled.frames.clip[*r].clone(),
                 frame: labeled.frames.frame[*r],
-                reprise: answer(&ours),
-                baseline: answer(&theirs),
+                reprise: answer(&ours, ours_asked),
+                baseline: answer(&theirs, 0),
             };
             bar.inc(1);
             (req, ours, theirs, again)
@@ -268,4 +287,67 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Request>>> {
     let reqs: Vec<Request> = answers.into_iter().map(|a| a.0).collect();
     transitions::write(&args.requests, &reqs, &provenance)?;
     Ok(Some(reqs))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use reprise_artifact::frames::Frames;
+
+    /// Two labels of 40 frames each, one control moving at a constant 1 per frame (a from
+    /// 0, b from 100), so any repeated or stalled frame shows as a short step.
+    fn labeled() -> LabeledFrames {
+        let n = 40;
+        let values: Vec<f64> = (0..2 * n).map(|r| if r < n { r as f64 } else { 100.0 + (r - n) as f64 }).collect();
+        LabeledFrames {
+            segment_id: (0..2 * n).map(|r| (r / n) as i64).collect(),
+            label: (0..2 * n).map(|r| if r < n { "a".into() } else { "b".into() }).collect(),
+            frames: Frames {
+                fps: 24.0,
+                controls: vec!["c".into()],
+                clip: (0..2 * n).map(|r| format!("clip{}", r / n)).collect(),
+                frame: (0..2 * n).map(|r| (r % n) as i64).collect(),
+                time: (0..2 * n).map(|r| (r % n) as f64 / 24.0).collect(),
+                values,
+            },
+            masked_controls: vec![],
+        }
+    }
+
+    fn edge(from: usize, to: usize, kind: &str) -> motion_graph::Edge {
+        motion_graph::Edge { from: from as i64, to: to as i64, kind: kind.into(), cost: 1, distance: 0.0, in_scc: true }
+    }
+
+    /// The baseline plays no frame twice: the blend replaces A_i … A_{i+k−1}, whether the
+    /// transition leaves from the request's own frame or from a frame reached by playing.
+    #[test]
+    fn the_baseline_plays_no_duplicated_frame() {
+        let lf = labeled();
+        let k = 4;
+        for (start, leave) in [(10usize, 10usize), (5, 10)] {
+            // next edges within each label; one transition a_leave -> b_20 (blend with b_{17..20}).
+            let mut edges: Vec<motion_graph::Edge> = (0..79).filter(|&i| i != 39).map(|i| edge(i, i + 1, "next")).collect();
+            edges.push(edge(leave, 40 + 20, "transition"));
+            let mut g = Graph::new(80);
+            for (i, e) in edges.iter().enumerate() {
+                g.add(e.from as usize, e.to as usize, e.cost as u32, i);
+            }
+            let alive = vec![true; 80];
+            let base = Baseline { g: &g, alive: &alive, edges: &edges, labeled: &lf, k, hold: 3 };
+            let played = base.answer(start, "b").unwrap();
+            let v: Vec<f64> = played.iter().map(|(_, p)| p[0]).collect();
+            assert_eq!(v[0], start as f64, "the request's own frame comes first");
+            for w in v.windows(2) {
+                // Within A and within B a step is 1; across the blend the mix moves by
+                // (A's step) plus the weight change times the 80-unit gap — never 0.
+                assert!(w[1] - w[0] >= 0.99, "stalled: {v:?}");
+            }
+            // From the request, A plays to A_{leave−1}, then the k blended frames in place of
+            // A_leave … (at the request, A_leave is the request's frame and k − 1 follow it),
+            // then B_20: k frames after A_leave's place either way.
+            let to_b = v.iter().position(|&x| x == 120.0).unwrap();
+            assert_eq!(to_b, (leave - start) + k, "{v:?}");
+            assert_eq!(v.len(), to_b + 1 + 3, "then the hold plays on in B");
+        }
+    }
 }

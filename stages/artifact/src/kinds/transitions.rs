@@ -8,6 +8,7 @@
 //! | `segment_id`, `clip`, `frame` | Int64, Utf8, Int64 | the start frame (of A) |
 //! | `reprise_answered`, `baseline_answered` | Boolean | whether the system reached B |
 //! | `reprise_latency`, `baseline_latency` | Int64 | frames from the request to the first frame of B (null if unanswered) |
+//! | `reprise_asked`, `baseline_asked` | Int64 | frame of the answer's curves at which the request was made (its first frame of B is `asked + latency`) |
 //! | `reprise_error`, `baseline_error` | Utf8 | why not answered (empty if answered) |
 
 use std::path::Path;
@@ -17,13 +18,16 @@ use crate::provenance::Provenance;
 use crate::table::{Columns, Kind, Table};
 
 /// Kind of the requests table.
-pub const TRANSITION_REQUESTS: Kind = Kind { name: "transition_requests", version: 1 };
+pub const TRANSITION_REQUESTS: Kind = Kind { name: "transition_requests", version: 2 };
 
 /// One system's answer.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Answer {
-    /// Frames to the first frame of B, if answered.
+    /// Frames from the request to the first frame of B, if answered.
     pub latency: Option<i64>,
+    /// Index, in the answer's curves, of the frame at which the request was made (a hold
+    /// before it is context, not answer).
+    pub asked: i64,
     /// Why not answered.
     pub error: String,
 }
@@ -63,6 +67,8 @@ pub fn write(path: &Path, rows: &[Request], provenance: &Provenance) -> Result<(
         .bool("baseline_answered", rows.iter().map(|r| r.baseline.latency.is_some()).collect())
         .f64_opt("reprise_latency", rows.iter().map(|r| r.reprise.latency.map(|v| v as f64)).collect())
         .f64_opt("baseline_latency", rows.iter().map(|r| r.baseline.latency.map(|v| v as f64)).collect())
+        .i64("reprise_asked", rows.iter().map(|r| r.reprise.asked).collect())
+        .i64("baseline_asked", rows.iter().map(|r| r.baseline.asked).collect())
         .str("reprise_error", &s(|r| r.reprise.error.as_str()))
         .str("baseline_error", &s(|r| r.baseline.error.as_str()));
     crate::table::write(path, TRANSITION_REQUESTS, cols, provenance, &[])
@@ -73,6 +79,7 @@ pub fn read(path: &Path) -> Result<Vec<Request>> {
     let t = Table::read(path, TRANSITION_REQUESTS)?;
     let (id, from, to, seg, clip, frame) =
         (t.i64("request")?, t.str("from")?, t.str("to")?, t.i64("segment_id")?, t.str("clip")?, t.i64("frame")?);
+    let (ra, ba) = (t.i64("reprise_asked")?, t.i64("baseline_asked")?);
     let (rl, bl, re, be) = (
         t.f64_opt("reprise_latency")?,
         t.f64_opt("baseline_latency")?,
@@ -87,8 +94,8 @@ pub fn read(path: &Path) -> Result<Vec<Request>> {
             segment_id: seg[r],
             clip: clip[r].into(),
             frame: frame[r],
-            reprise: Answer { latency: rl[r].map(|v| v as i64), error: re[r].into() },
-            baseline: Answer { latency: bl[r].map(|v| v as i64), error: be[r].into() },
+            reprise: Answer { latency: rl[r].map(|v| v as i64), asked: ra[r], error: re[r].into() },
+            baseline: Answer { latency: bl[r].map(|v| v as i64), asked: ba[r], error: be[r].into() },
         })
         .collect())
 }
@@ -108,8 +115,8 @@ mod tests {
             segment_id: 1,
             clip: "c".into(),
             frame: 9,
-            reprise: Answer { latency: Some(30), error: String::new() },
-            baseline: Answer { latency: None, error: "start frame pruned".into() },
+            reprise: Answer { latency: Some(30), asked: 12, error: String::new() },
+            baseline: Answer { latency: None, asked: 0, error: "start frame pruned".into() },
         };
         let path = dir.path().join("r.parquet");
         write(&path, std::slice::from_ref(&r), &Provenance::new("t", "0", serde_json::json!({}))).unwrap();
