@@ -5,8 +5,14 @@
 //! multi-start SCG from M2's training latents whose outputs are nearest $\hat y$ plus
 //! random starts. The candidates' distance is measured in M2's scaled control space,
 //! $\lVert W_2(p - g_2(x_2))\rVert$ (mesh length), and, through the rig, as the RMS vertex
-//! distance of the two poses. A pair keeps its candidates under a threshold: a quantile
-//! of its own rig distances (default: the best 2 %), or an absolute rig or mesh distance.
+//! distance of the two poses. A pair keeps its candidates under a threshold. The default,
+//! `mesh-motion`, is absolute and comes from the data: a bridge's two poses may differ by
+//! at most `motion_multiple` (default 4) times the training data's median per-frame mesh
+//! motion — the RMS vertex distance between consecutive frames of a segment, over every
+//! label's segments — so two labels with no similar poses get no direct bridge (the
+//! engine then routes through a third label, or fails). The alternatives: a quantile of
+//! the pair's own rig distances (every pair keeps at least one bridge), or an absolute rig
+//! or mesh distance.
 
 use std::path::PathBuf;
 
@@ -14,6 +20,7 @@ use clap::{Parser, ValueEnum};
 use rayon::prelude::*;
 use reprise_artifact::bridges::{self, Bridge};
 use reprise_artifact::controls::Controls;
+use reprise_artifact::frames::LabeledFrames;
 use reprise_model::Models;
 use reprise_numerics::gplvm::{best_latent, LatentModel, ProjectOptions};
 use reprise_numerics::scg::ScgOptions;
@@ -31,6 +38,9 @@ pub enum Threshold {
     Rig,
     /// Mesh distance at most `--max-distance` (needs a rig).
     Mesh,
+    /// Mesh distance at most `--motion-multiple` × the median per-frame mesh motion of the
+    /// training frames (needs a rig and the labeled frames).
+    MeshMotion,
 }
 
 /// `reprise-bridges`: matching latent points between every ordered pair of label models.
@@ -53,6 +63,11 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
     pub controls: Option<PathBuf>,
+    /// Input (for `--threshold mesh-motion`): the labeled frames, whose per-frame mesh
+    /// motion sets the threshold.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub labeled_frames: Option<PathBuf>,
     /// Output: the bridges.
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
@@ -70,7 +85,7 @@ pub struct Args {
     #[arg(long, default_value_t = 40)]
     pub max_iters: usize,
     /// Which threshold keeps a candidate.
-    #[arg(long, value_enum, default_value_t = Threshold::Quantile)]
+    #[arg(long, value_enum, default_value_t = Threshold::MeshMotion)]
     pub threshold: Threshold,
     /// With `quantile`: the share of each pair's candidates kept (at least one).
     #[arg(long, default_value_t = 0.02)]
@@ -78,6 +93,9 @@ pub struct Args {
     /// With `rig` or `mesh`: the largest distance kept.
     #[arg(long)]
     pub max_distance: Option<f64>,
+    /// With `mesh-motion`: the largest mesh distance kept, in median per-frame mesh motions.
+    #[arg(long, default_value_t = 4.0)]
+    pub motion_multiple: f64,
     /// Seed of the random starts.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -101,6 +119,12 @@ impl Args {
                 cfg("--threshold rig|mesh needs --max-distance >= 0")
             }
             Threshold::Mesh if self.controls.is_none() => cfg("--threshold mesh needs --controls (the rig)"),
+            Threshold::MeshMotion if self.controls.is_none() || self.labeled_frames.is_none() => {
+                cfg("--threshold mesh-motion needs --controls (the rig) and --labeled-frames")
+            }
+            Threshold::MeshMotion if !(self.motion_multiple.is_finite() && self.motion_multiple >= 0.0) => {
+                cfg("--motion-multiple must be >= 0")
+            }
             _ => Ok(()),
         }
     }
@@ -121,6 +145,35 @@ pub struct PairCount {
     pub best: f64,
 }
 
+/// The median over all segments' consecutive frame pairs of the RMS vertex distance
+/// between their meshes (mesh units per frame); evaluated 128 frames at a time.
+pub fn median_frame_motion(rig: &(Box<dyn reprise_rig::Rig>, reprise_rig::PoseLayout), lf: &LabeledFrames) -> StageResult<f64> {
+    const CHUNK: usize = 128;
+    let mut steps = Vec::with_capacity(lf.frames.rows());
+    for (start, end) in lf.segment_runs() {
+        let mut prev: Option<Vec<f64>> = None;
+        let mut at = start;
+        while at < end {
+            let to = (at + CHUNK).min(end);
+            let rows: Vec<Vec<f64>> = (at..to).map(|r| lf.frames.row(r).to_vec()).collect();
+            let m = meshes(rig, &rows)?;
+            let dim = m.len() / rows.len();
+            for mesh in m.chunks_exact(dim) {
+                if let Some(p) = &prev {
+                    steps.push(mesh_rmse(p, mesh));
+                }
+                prev = Some(mesh.to_vec());
+            }
+            at = to;
+        }
+    }
+    if steps.is_empty() {
+        return Err(StageError::Input("the labeled frames have no two consecutive frames in a segment".into()));
+    }
+    steps.sort_by(f64::total_cmp);
+    Ok(steps[steps.len() / 2])
+}
+
 /// M2's training outputs $\mu(x_i)$ (centred), the starts' guide.
 fn training_outputs(m: &LatentModel) -> Vec<f64> {
     let (q, d) = (m.q(), m.d());
@@ -129,6 +182,17 @@ fn training_outputs(m: &LatentModel) -> Vec<f64> {
         m.predictor.mean(xi, o);
     }
     out
+}
+
+/// What the stage found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Outcome {
+    /// Per ordered pair.
+    pub counts: Vec<PairCount>,
+    /// With `mesh-motion`: the training data's median per-frame mesh motion.
+    pub frame_motion: Option<f64>,
+    /// With a mesh threshold: the largest mesh distance kept.
+    pub max_mesh: Option<f64>,
 }
 
 /// One candidate of a pair.
@@ -168,7 +232,7 @@ fn candidates(m1: &LatentModel, m2: &LatentModel, train2: &[f64], args: &Args, s
 }
 
 /// Runs the stage (or only validates, with `--check`).
-pub fn run(args: &Args) -> StageResult<Option<Vec<PairCount>>> {
+pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
     args.validate()?;
     if args.check {
         return Ok(None);
@@ -180,6 +244,9 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<PairCount>>> {
     if let Some(c) = &args.controls {
         provenance = provenance.with_input("controls", c)?;
     }
+    if let Some(l) = &args.labeled_frames {
+        provenance = provenance.with_input("labeled_frames", l)?;
+    }
     let Models { controls, models } = reprise_model::load(&args.gplvm_models, &args.pca_models, &args.scales)?;
     if models.len() < 2 {
         return Err(StageError::Input(format!(
@@ -190,6 +257,22 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<PairCount>>> {
     }
     let rig =
         args.controls.as_ref().map(|c| reprise_stagekit::rig::open_rig(&Controls::read(c)?, &controls)).transpose()?;
+    let mesh_max = match (args.threshold, &args.labeled_frames, rig.as_ref()) {
+        (Threshold::MeshMotion, Some(path), Some(r)) => {
+            let lf = LabeledFrames::read(path)?;
+            if lf.frames.controls != controls {
+                return Err(StageError::Input(format!(
+                    "{} has other controls than the models of {}; rerun the stages after label",
+                    path.display(),
+                    args.gplvm_models.display()
+                )));
+            }
+            let motion = median_frame_motion(r, &lf)?;
+            Some((motion, args.motion_multiple * motion))
+        }
+        (Threshold::Mesh, _, _) => args.max_distance.map(|d| (f64::NAN, d)),
+        _ => None,
+    };
     let train: Vec<Vec<f64>> = models.par_iter().map(training_outputs).collect();
     let pairs: Vec<(usize, usize)> =
         (0..models.len()).flat_map(|a| (0..models.len()).filter(move |&b| b != a).map(move |b| (a, b))).collect();
@@ -223,8 +306,8 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<PairCount>>> {
                     let mesh = mesh_of(&cands)?;
                     (cands, mesh)
                 }
-                Threshold::Mesh => {
-                    let max = args.max_distance.unwrap_or(f64::INFINITY);
+                Threshold::Mesh | Threshold::MeshMotion => {
+                    let max = mesh_max.map_or(f64::INFINITY, |m| m.1);
                     let mesh = mesh_of(&cands)?.unwrap_or_default();
                     let mut both: Vec<(Candidate, f64)> =
                         cands.into_iter().zip(mesh).filter(|(_, m)| *m <= max).collect();
@@ -267,5 +350,61 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<PairCount>>> {
         counts.push(count);
     }
     bridges::write(&args.bridges, &all, models[0].q(), &provenance)?;
-    Ok(Some(counts))
+    Ok(Some(Outcome { counts, frame_motion: mesh_max.map(|m| m.0).filter(|m| m.is_finite()), max_mesh: mesh_max.map(|m| m.1) }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use reprise_artifact::frames::Frames;
+    use reprise_rig::local::{Local, PoseEvaluator};
+
+    /// One control moving two vertices: the first by (c, 0, 0), the second by (0, 2c, 0).
+    struct Line;
+    impl PoseEvaluator for Line {
+        fn describe(&self) -> String {
+            "line".into()
+        }
+        fn control_names(&self) -> Vec<String> {
+            vec!["c".into()]
+        }
+        fn rest_pose(&self) -> Vec<f64> {
+            vec![0.0]
+        }
+        fn vertex_count(&self) -> usize {
+            2
+        }
+        fn triangles(&self) -> &[[u32; 3]] {
+            &[]
+        }
+        fn evaluate_pose(&self, pose: &[f64], out: &mut [f64]) {
+            out.copy_from_slice(&[pose[0], 0.0, 0.0, 0.0, 2.0 * pose[0], 0.0]);
+        }
+    }
+
+    /// The threshold's data: the median of the per-frame RMS vertex motion, within segments
+    /// only (the jump between two segments is not motion).
+    #[test]
+    fn median_frame_motion_is_known() {
+        // Segment 0 steps by 1, 1, 3 (c = 0, 1, 2, 5); segment 1 by 2, 2 (c = 100, 102, 104).
+        let c = [0.0, 1.0, 2.0, 5.0, 100.0, 102.0, 104.0];
+        let lf = LabeledFrames {
+            segment_id: vec![0, 0, 0, 0, 1, 1, 1],
+            label: vec!["a".into(); 7],
+            frames: Frames {
+                fps: 24.0,
+                controls: vec!["c".into()],
+                clip: vec!["x".into(); 7],
+                frame: (0..7).collect(),
+                time: (0..7).map(|f| f as f64 / 24.0).collect(),
+                values: c.to_vec(),
+            },
+            masked_controls: vec![],
+        };
+        let rig: Box<dyn reprise_rig::Rig> = Box::new(Local::new(Line));
+        let layout = reprise_rig::PoseLayout::new(&["c".into()], vec![0.0], &["c".into()]).unwrap();
+        // A step of s moves the vertices by s and 2s: RMS √((s² + 4s²)/2) = s·√2.5.
+        let m = median_frame_motion(&(rig, layout), &lf).unwrap();
+        assert!((m - 2.0 * 2.5f64.sqrt()).abs() < 1e-12, "{m}");
+    }
 }
