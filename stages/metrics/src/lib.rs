@@ -44,6 +44,22 @@ pub fn peaks(x: &[f64], dim: usize, fps: f64) -> (Vec<f64>, Vec<f64>) {
     (acc, jerk)
 }
 
+/// Per frame, the peak vertex speed: the largest $\lVert x_t - x_{t-1}\rVert$ over vertices,
+/// × fps (mesh units per second); 0 at the first frame. A pose jump shows as one large value.
+pub fn peak_speeds(x: &[f64], dim: usize, fps: f64) -> Vec<f64> {
+    let n = x.len() / dim.max(1);
+    (0..n)
+        .map(|t| {
+            if t == 0 {
+                return 0.0;
+            }
+            let (a, b) = (&x[(t - 1) * dim..t * dim], &x[t * dim..(t + 1) * dim]);
+            (0..dim / 3).map(|v| (0..3).map(|k| (b[3 * v + k] - a[3 * v + k]).powi(2)).sum::<f64>().sqrt()).fold(0.0, f64::max)
+                * fps
+        })
+        .collect()
+}
+
 /// The `q`-quantile (0–1) of `values` by linear interpolation between order statistics;
 /// NaN for no values.
 pub fn quantile(values: &[f64], q: f64) -> f64 {
@@ -101,6 +117,14 @@ pub fn bootstrap_mean_ci(values: &[f64], resamples: usize, seed: u64) -> (f64, f
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two vertices, one still and one moving 1, 1, then jumping 5 per frame: the peak
+    /// speed is the mover's step × fps.
+    #[test]
+    fn peak_speeds_find_the_jump() {
+        let x = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0, 7.0, 0.0, 0.0];
+        assert_eq!(peak_speeds(&x, 6, 24.0), vec![0.0, 24.0, 24.0, 120.0]);
+    }
 
     /// A unit step of one vertex along x at frame 5 has second differences ±1 and third
     /// differences 1, −3·… : peak acceleration f² at frames 4 and 5, peak jerk ≤ 3f³ — and

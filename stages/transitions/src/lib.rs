@@ -110,14 +110,20 @@ pub const RESEED: u64 = 1_000_003;
 impl Baseline<'_> {
     fn answer(&self, start: usize, to: &str) -> Result<Played, String> {
         let Baseline { g, alive, edges, labeled, k, hold } = *self;
-        if !alive[start] {
-            return Err("the start frame is not in the motion graph's largest strongly connected component".into());
-        }
-        let (_, path) =
-            g.shortest_to(start, alive, |v| labeled.label[v] == to).ok_or_else(|| format!("no path to `{to}`"))?;
         let row = |r: usize| labeled.frames.row(r).to_vec();
         let mut out: Played = vec![(labeled.label[start].clone(), row(start))];
+        // A start the pruning dropped plays forward along its clip into the kept component
+        // (those frames count toward the latency); one that never gets there has no answer.
         let mut at = start;
+        while !alive[at] {
+            let Some(&(w, _, _)) = g.adj[at].iter().find(|&&(_, _, id)| edges[id].kind == "next") else {
+                return Err("the start frame's clip never enters the motion graph's largest strongly connected component".into());
+            };
+            out.push((labeled.label[w].clone(), row(w)));
+            at = w;
+        }
+        let (_, path) =
+            g.shortest_to(at, alive, |v| labeled.label[v] == to).ok_or_else(|| format!("no path to `{to}`"))?;
         for &e in &path {
             let edge = &edges[e];
             let (from, dest) = (edge.from as usize, edge.to as usize);
@@ -335,6 +341,13 @@ mod tests {
             let alive = vec![true; 80];
             let base = Baseline { g: &g, alive: &alive, edges: &edges, labeled: &lf, k, hold: 3 };
             let played = base.answer(start, "b").unwrap();
+            // Pruned starts play forward into the kept component: the same answer, later.
+            let mut pruned = alive.clone();
+            pruned[..start].iter_mut().for_each(|a| *a = false);
+            if start > 0 {
+                let late = Baseline { alive: &pruned, ..base }.answer(start - 1, "b").unwrap();
+                assert_eq!(late.len(), played.len() + 1, "one frame more, from the frame before");
+            }
             let v: Vec<f64> = played.iter().map(|(_, p)| p[0]).collect();
             assert_eq!(v[0], start as f64, "the request's own frame comes first");
             for w in v.windows(2) {
