@@ -7,10 +7,12 @@
 //! $\lVert W_2(p - g_2(x_2))\rVert$ (mesh length), and, through the rig, as the RMS vertex
 //! distance of the two poses. A pair keeps its candidates under a threshold. The default,
 //! `mesh-motion`, is absolute and comes from the data: a bridge's two poses may differ by
-//! at most `motion_multiple` (default 4) times the training data's median per-frame mesh
-//! motion — the RMS vertex distance between consecutive frames of a segment, over every
-//! label's segments — so two labels with no similar poses get no direct bridge (the
-//! engine then routes through a third label, or fails). The alternatives: a quantile of
+//! at most `motion_multiple` (default 8) times the `motion_quantile` (default 0.9) of the
+//! training data's per-frame mesh motion — the RMS vertex distance between consecutive
+//! frames of a segment, over every label's segments. With the defaults, the 12-frame
+//! smoothstep blend, whose steepest frame carries 1.5/12 of the gap, adds at most one fast
+//! training frame step (the 90th percentile) per frame. Two labels with no pose that close
+//! get no direct bridge (the engine then routes through a third label, or fails). The alternatives: a quantile of
 //! the pair's own rig distances (every pair keeps at least one bridge), or an absolute rig
 //! or mesh distance.
 
@@ -38,8 +40,8 @@ pub enum Threshold {
     Rig,
     /// Mesh distance at most `--max-distance` (needs a rig).
     Mesh,
-    /// Mesh distance at most `--motion-multiple` × the median per-frame mesh motion of the
-    /// training frames (needs a rig and the labeled frames).
+    /// Mesh distance at most `--motion-multiple` × the `--motion-quantile` of the training
+    /// frames' per-frame mesh motion (needs a rig and the labeled frames).
     MeshMotion,
 }
 
@@ -93,9 +95,14 @@ pub struct Args {
     /// With `rig` or `mesh`: the largest distance kept.
     #[arg(long)]
     pub max_distance: Option<f64>,
-    /// With `mesh-motion`: the largest mesh distance kept, in median per-frame mesh motions.
-    #[arg(long, default_value_t = 4.0)]
+    /// With `mesh-motion`: the largest mesh distance kept, in units of the training data's
+    /// per-frame mesh motion at `--motion-quantile` (8 = a 12-frame blend's steepest frame
+    /// carries one such step).
+    #[arg(long, default_value_t = 8.0)]
     pub motion_multiple: f64,
+    /// With `mesh-motion`: which quantile of the per-frame mesh motion is the unit.
+    #[arg(long, default_value_t = 0.9)]
+    pub motion_quantile: f64,
     /// Seed of the random starts.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -122,8 +129,12 @@ impl Args {
             Threshold::MeshMotion if self.controls.is_none() || self.labeled_frames.is_none() => {
                 cfg("--threshold mesh-motion needs --controls (the rig) and --labeled-frames")
             }
-            Threshold::MeshMotion if !(self.motion_multiple.is_finite() && self.motion_multiple >= 0.0) => {
-                cfg("--motion-multiple must be >= 0")
+            Threshold::MeshMotion
+                if !(self.motion_multiple.is_finite()
+                    && self.motion_multiple >= 0.0
+                    && (0.0..=1.0).contains(&self.motion_quantile)) =>
+            {
+                cfg("--motion-multiple must be >= 0 and --motion-quantile in [0, 1]")
             }
             _ => Ok(()),
         }
@@ -145,9 +156,14 @@ pub struct PairCount {
     pub best: f64,
 }
 
-/// The median over all segments' consecutive frame pairs of the RMS vertex distance
-/// between their meshes (mesh units per frame); evaluated 128 frames at a time.
-pub fn median_frame_motion(rig: &(Box<dyn reprise_rig::Rig>, reprise_rig::PoseLayout), lf: &LabeledFrames) -> StageResult<f64> {
+/// The `q`-quantile over all segments' consecutive frame pairs of the RMS vertex distance
+/// between their meshes (mesh units per frame, the nearest order statistic); evaluated 128
+/// frames at a time.
+pub fn frame_motion(
+    rig: &(Box<dyn reprise_rig::Rig>, reprise_rig::PoseLayout),
+    lf: &LabeledFrames,
+    q: f64,
+) -> StageResult<f64> {
     const CHUNK: usize = 128;
     let mut steps = Vec::with_capacity(lf.frames.rows());
     for (start, end) in lf.segment_runs() {
@@ -171,7 +187,7 @@ pub fn median_frame_motion(rig: &(Box<dyn reprise_rig::Rig>, reprise_rig::PoseLa
         return Err(StageError::Input("the labeled frames have no two consecutive frames in a segment".into()));
     }
     steps.sort_by(f64::total_cmp);
-    Ok(steps[steps.len() / 2])
+    Ok(steps[((steps.len() - 1) as f64 * q).round() as usize])
 }
 
 /// M2's training outputs $\mu(x_i)$ (centred), the starts' guide.
@@ -189,7 +205,7 @@ fn training_outputs(m: &LatentModel) -> Vec<f64> {
 pub struct Outcome {
     /// Per ordered pair.
     pub counts: Vec<PairCount>,
-    /// With `mesh-motion`: the training data's median per-frame mesh motion.
+    /// With `mesh-motion`: the training data's per-frame mesh motion at `motion_quantile`.
     pub frame_motion: Option<f64>,
     /// With a mesh threshold: the largest mesh distance kept.
     pub max_mesh: Option<f64>,
@@ -267,7 +283,7 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
                     args.gplvm_models.display()
                 )));
             }
-            let motion = median_frame_motion(r, &lf)?;
+            let motion = frame_motion(r, &lf, args.motion_quantile)?;
             Some((motion, args.motion_multiple * motion))
         }
         (Threshold::Mesh, _, _) => args.max_distance.map(|d| (f64::NAN, d)),
@@ -382,10 +398,10 @@ mod tests {
         }
     }
 
-    /// The threshold's data: the median of the per-frame RMS vertex motion, within segments
+    /// The threshold's data: quantiles of the per-frame RMS vertex motion, within segments
     /// only (the jump between two segments is not motion).
     #[test]
-    fn median_frame_motion_is_known() {
+    fn frame_motion_is_known() {
         // Segment 0 steps by 1, 1, 3 (c = 0, 1, 2, 5); segment 1 by 2, 2 (c = 100, 102, 104).
         let c = [0.0, 1.0, 2.0, 5.0, 100.0, 102.0, 104.0];
         let lf = LabeledFrames {
@@ -404,7 +420,10 @@ mod tests {
         let rig: Box<dyn reprise_rig::Rig> = Box::new(Local::new(Line));
         let layout = reprise_rig::PoseLayout::new(&["c".into()], vec![0.0], &["c".into()]).unwrap();
         // A step of s moves the vertices by s and 2s: RMS √((s² + 4s²)/2) = s·√2.5.
-        let m = median_frame_motion(&(rig, layout), &lf).unwrap();
+        let rig = (rig, layout);
+        let m = frame_motion(&rig, &lf, 0.5).unwrap();
         assert!((m - 2.0 * 2.5f64.sqrt()).abs() < 1e-12, "{m}");
+        assert!((frame_motion(&rig, &lf, 1.0).unwrap() - 3.0 * 2.5f64.sqrt()).abs() < 1e-12);
+        assert!((frame_motion(&rig, &lf, 0.0).unwrap() - 2.5f64.sqrt()).abs() < 1e-12);
     }
 }

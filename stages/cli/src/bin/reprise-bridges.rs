@@ -6,7 +6,7 @@ fn main() {
     reprise_stagekit::main("reprise-bridges", || {
         if let Some(out) = reprise_bridges::run(&args)? {
             if let (Some(m), Some(max)) = (out.frame_motion, out.max_mesh) {
-                eprintln!("median per-frame mesh motion {m:.4}; bridges keep mesh distances up to {max:.4}");
+                eprintln!("per-frame mesh motion at the chosen quantile {m:.4}; bridges keep mesh distances up to {max:.4}");
             }
             eprintln!("{:<12} {:<12} {:>10} {:>5} {:>12}", "from", "to", "candidates", "kept", "best rig dist");
             for c in &out.counts {
