@@ -20,10 +20,46 @@ use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::gplvm::{self, FitSummary, GplvmModel, Latents, Trace};
 
 use reprise_artifact::pca::{self, SCALED};
-use reprise_numerics::gplvm::{ConnectivityParams, DynamicsParams, Fit, FitConfig, FitData, Jitter, LikelihoodConfig};
-use reprise_numerics::scg::{ScgOptions, StopReason};
+use reprise_numerics::gplvm::{
+    ConnectivityParams, ConnectivityPath, DynamicsParams, Fit, FitConfig, FitData, Jitter, LikelihoodConfig,
+    Optimizer,
+};
+use reprise_numerics::optim::{Convergence, StopReason};
+use reprise_numerics::scg::ScgOptions;
 use reprise_stagekit::{StageError, StageResult};
 use serde::Serialize;
+
+/// Which optimiser fits the labels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum OptimizerKind {
+    /// Limited-memory BFGS.
+    Lbfgs,
+    /// Netlab's scaled conjugate gradients.
+    Scg,
+}
+
+/// When the optimiser stops.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StopRule {
+    /// The convergence rule of `reprise_numerics::optim`.
+    Converged,
+    /// Netlab's step tests (SCG only).
+    Netlab,
+}
+
+/// How the connectivity prior enters the fit (see `ConnectivityPath`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PathKind {
+    /// The exact prior throughout.
+    Exact,
+    /// The subset prior to convergence, then the exact prior to convergence.
+    Staged,
+    /// The subset prior throughout.
+    Subset,
+}
 
 /// `reprise-gplvm`: one GPLVM per label.
 #[derive(Debug, Clone, Parser, Serialize)]
@@ -69,16 +105,38 @@ pub struct Args {
     /// Latent dimension q (the paper: 3).
     #[arg(long, default_value_t = 3)]
     pub q: usize,
-    /// SCG iteration cap per label.
-    #[arg(long, default_value_t = 1000)]
+    /// The optimiser: `lbfgs` or `scg` (Netlab's, the paper's).
+    #[arg(long, value_enum, default_value_t = OptimizerKind::Lbfgs)]
+    pub optimizer: OptimizerKind,
+    /// When to stop: `converged` (relative decrease over a window AND scaled gradient,
+    /// see reprise_numerics::optim) or `netlab` (SCG only: Netlab's --xtol AND --ftol on
+    /// one step, the setting before convergence was defined).
+    #[arg(long, value_enum, default_value_t = StopRule::Converged)]
+    pub stop: StopRule,
+    /// Iteration cap per label: a safety net; a fit that reaches it is reported as NOT
+    /// converged.
+    #[arg(long, default_value_t = 10_000)]
     pub max_iters: usize,
-    /// SCG tolerance on the largest parameter change of an accepted step (Netlab options(2)).
+    /// `converged`: window W of accepted iterations for the relative-decrease test.
+    #[arg(long, default_value_t = 10)]
+    pub window: usize,
+    /// `converged`: largest mean relative decrease of E per iteration over the window.
+    #[arg(long, default_value_t = 1e-9)]
+    pub rel_ftol: f64,
+    /// `converged`: largest scaled gradient max_i |g_i| max(|p_i|, 1) / max(|E|, N·d).
+    #[arg(long, default_value_t = 1e-5)]
+    pub rel_gtol: f64,
+    /// `netlab`: tolerance on the largest parameter change of an accepted step (Netlab options(2)).
     #[arg(long, default_value_t = 1e-4)]
     pub xtol: f64,
-    /// SCG tolerance on the objective change of an accepted step (Netlab options(3));
+    /// `netlab`: tolerance on the objective change of an accepted step (Netlab options(3));
     /// Netlab stops when both the x and f tests pass.
     #[arg(long, default_value_t = 1e-4)]
     pub ftol: f64,
+    /// Keep the RBF length scale ℓ at 1 (a choice of units for the latents): with ℓ free the
+    /// dynamics prior shrinks X and ℓ together without end and no fit converges.
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    pub fix_lengthscale: bool,
     /// Initial white variance relative to the RBF variance (which starts at var(Y)).
     #[arg(long, default_value_t = 0.05)]
     pub init_white_ratio: f64,
@@ -123,6 +181,14 @@ pub struct Args {
     /// Scale β and w_c with N as GPCM does.
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
     pub connectivity_scale_with_n: bool,
+    /// How the connectivity prior enters the fit: `exact` throughout; `staged` (the prior
+    /// on every --connectivity-stride-th frame to convergence, then the exact prior to
+    /// convergence); `subset` (the subset prior throughout, exact only reported).
+    #[arg(long, value_enum, default_value_t = PathKind::Staged)]
+    pub connectivity_path: PathKind,
+    /// Stride of the subset for `staged` and `subset`.
+    #[arg(long, default_value_t = 2)]
+    pub connectivity_stride: usize,
 
     /// Held-out check: leave out every K-th frame of each label (0: off).
     #[arg(long, default_value_t = 0)]
@@ -143,6 +209,7 @@ impl Args {
         FitConfig {
             q: self.q,
             init_white_ratio: self.init_white_ratio,
+            fix_lengthscale: self.fix_lengthscale,
             likelihood: LikelihoodConfig {
                 jitter: Jitter { base: self.jitter, max_retries: self.jitter_retries, ..Jitter::GPY },
                 white_floor: self.white_floor,
@@ -163,16 +230,42 @@ impl Args {
                 scale_weight_with_n: self.connectivity_scale_with_n,
                 ..Default::default()
             }),
-            scg: ScgOptions { max_iters: self.max_iters, xtol: self.xtol, ftol: self.ftol, ..Default::default() },
+            connectivity_path: match self.connectivity_path {
+                PathKind::Exact => ConnectivityPath::Exact,
+                PathKind::Staged => ConnectivityPath::Staged { stride: self.connectivity_stride },
+                PathKind::Subset => ConnectivityPath::Subset { stride: self.connectivity_stride },
+            },
+            optimizer: self.optimizer(),
+        }
+    }
+
+    fn optimizer(&self) -> Optimizer {
+        let convergence = Convergence { window: self.window, ftol: self.rel_ftol, gtol: self.rel_gtol, f_typical: 1.0 };
+        match (self.optimizer, self.stop) {
+            (OptimizerKind::Lbfgs, _) => Optimizer::lbfgs(convergence, self.max_iters),
+            (OptimizerKind::Scg, StopRule::Converged) => Optimizer::scg(convergence, self.max_iters),
+            (OptimizerKind::Scg, StopRule::Netlab) => Optimizer::Scg(ScgOptions {
+                max_iters: self.max_iters,
+                xtol: self.xtol,
+                ftol: self.ftol,
+                convergence,
+                ..Default::default()
+            }),
         }
     }
 
     fn validate(&self) -> StageResult<()> {
         let pos = |v: f64| v.is_finite() && v > 0.0;
-        let checks: [(bool, &str); 9] = [
+        let checks: [(bool, &str); 12] = [
             (self.q >= 1, "--q must be at least 1"),
             (self.max_iters >= 1, "--max-iters must be at least 1"),
             (pos(self.xtol) && pos(self.ftol), "--xtol and --ftol must be positive"),
+            (self.window >= 1 && pos(self.rel_ftol) && pos(self.rel_gtol), "--window, --rel-ftol and --rel-gtol must be positive"),
+            (self.connectivity_stride >= 1, "--connectivity-stride must be at least 1"),
+            (
+                !(self.stop == StopRule::Netlab && self.optimizer == OptimizerKind::Lbfgs),
+                "--stop netlab is SCG's step test: use it with --optimizer scg",
+            ),
             (pos(self.init_white_ratio), "--init-white-ratio must be positive"),
             (self.white_floor.is_finite() && self.white_floor >= 0.0, "--white-floor must be >= 0"),
             (self.jitter.is_finite() && self.jitter >= 0.0, "--jitter must be >= 0"),
@@ -284,23 +377,12 @@ fn gather(coords: &pca::PcaCoords, fps: f64, path: &std::path::Path) -> StageRes
     Ok(out)
 }
 
-/// Why SCG stopped, as written to `gplvm_fits`.
-fn stop_reason(r: StopReason) -> &'static str {
-    match r {
-        StopReason::Tolerance => "tolerance",
-        StopReason::Gradient => "gradient",
-        StopReason::TinyDirection => "tiny-direction",
-        StopReason::MaxIterations => "max-iterations",
-        StopReason::NonFiniteStart => "non-finite-start",
-    }
-}
-
 /// Fits one label, reporting evaluations to `bar`.
 pub(crate) fn fit_label(data: &LabelData, config: &FitConfig, bar: &reprise_stagekit::ProgressBar) -> StageResult<Fit> {
     let fit = reprise_numerics::gplvm::fit(data.fit_data(), config, |_| bar.inc(1)).map_err(|e| {
         StageError::Numerical(format!("label `{}` ({} frames, d = {}): {e}", data.label, data.n(), data.d))
     })?;
-    if fit.scg.reason == StopReason::NonFiniteStart {
+    if fit.info.reason == StopReason::NonFiniteStart {
         let why = fit.last.error.as_ref().map_or("non-finite value or gradient".to_string(), |e| e.to_string());
         return Err(StageError::Numerical(format!("label `{}`: the objective at the start: {why}", data.label)));
     }
@@ -333,7 +415,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
         .num_threads(args.threads)
         .build()
         .map_err(|e| StageError::Config(format!("thread pool: {e}")))?;
-    let evals_per_fit = 2 * config.scg.max_iters as u64 + 2;
+    let evals_per_fit = 2 * config.optimizer.max_iters() as u64 + 2;
     let fits_per_label = if checker.is_some() { 2 } else { 1 };
     let results: Vec<StageResult<(Fit, FitSummary)>> = pool.install(|| {
         labels
@@ -350,18 +432,23 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
                     frames: l.n() as i64,
                     d: l.d as i64,
                     q: config.q as i64,
-                    iterations: fit.scg.iterations as i64,
-                    evaluations: fit.scg.evaluations as i64,
+                    optimizer: config.optimizer.name().into(),
+                    connectivity_path: config.connectivity_path.name().into(),
+                    stage_iterations: fit.stage_iterations.iter().map(|&i| i as i64).collect(),
+                    iterations: fit.info.iterations as i64,
+                    evaluations: fit.info.evaluations as i64,
                     initial_objective: fit.initial.value,
                     objective: fit.last.value,
                     neg_log_likelihood: fit.last.likelihood,
                     dynamics: fit.last.dynamics,
                     connectivity: fit.last.connectivity,
-                    grad_norm: fit.scg.grad_norm,
+                    grad_norm: fit.info.grad_norm,
+                    rel_decrease: fit.info.measures.rel_decrease,
+                    rel_gradient: fit.info.measures.rel_gradient,
                     jitter: fit.last.jitter.added,
                     dynamics_jitter: fit.dynamics_jitter.map_or(0.0, |j| j.added),
-                    converged: fit.scg.converged,
-                    stop_reason: stop_reason(fit.scg.reason).into(),
+                    converged: fit.info.converged,
+                    stop_reason: fit.info.reason.name().into(),
                     seconds,
                     heldout_gplvm_mesh_rmse: held.as_ref().map(|h| h.gplvm_rmse),
                     heldout_pca_mesh_rmse: held.as_ref().map(|h| h.pca_rmse),
@@ -394,6 +481,8 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
             trace.grad_norm.push(it.grad_norm);
             trace.beta.push(it.beta);
             trace.accepted.push(it.accepted);
+            trace.evaluations.push(it.evaluations as i64);
+            trace.seconds.push(it.seconds);
         }
         models.push(GplvmModel {
             label: l.label.clone(),

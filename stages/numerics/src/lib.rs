@@ -4,10 +4,13 @@
 //! - [`scaling`]: the per-control weights of Bailey et al. 2016, Eq. 3.
 //! - [`pca`]: principal component analysis by a dense thin SVD (faer).
 //! - [`gplvm`]: the RBF + white GPLVM likelihood, dynamics and connectivity priors, their
-//!   gradients, and prediction; [`scg`]: the Netlab scaled conjugate gradient optimiser.
+//!   gradients, and prediction; [`scg`]: the Netlab scaled conjugate gradient optimiser;
+//!   [`lbfgs`]: limited-memory BFGS; [`optim`]: their shared convergence rule and results.
 #![warn(missing_docs)]
 
 pub mod gplvm;
+pub mod lbfgs;
+pub mod optim;
 pub mod pca;
 pub mod scaling;
 pub mod scg;

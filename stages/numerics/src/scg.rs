@@ -18,7 +18,9 @@
 //! Termination ([`Termination`]): Netlab stops when an accepted step has BOTH
 //! $\max\lvert\alpha d\rvert <$ `xtol` AND $\lvert f_{new}-f_{old}\rvert <$ `ftol`, or when
 //! $g^\top g \le$ `gtol` (Netlab: exactly 0); paramz stops on ANY of the three.
-//! [`ScgOptions::paramz`] reproduces paramz's constants.
+//! [`ScgOptions::paramz`] reproduces paramz's constants. [`Termination::Converged`] uses
+//! the problem-level rule of [`crate::optim`] instead (relative decrease over a window AND
+//! scaled gradient), the one L-BFGS ([`crate::lbfgs`]) uses too.
 //!
 //! Because the closure computes value and gradient together, the gradient at an accepted
 //! point is the one computed with its value: an iteration costs two evaluations after an
@@ -29,9 +31,15 @@
 //! value or curvature is non-finite is replaced by $\theta = 0$ (a pure $\beta$-scaled
 //! gradient step).
 
+use crate::optim::{dot, finish, Convergence, Monitor};
+pub use crate::optim::{OptInfo, OptIter, OptResult, StopReason};
+
 /// Which termination rule to use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Termination {
+    /// The problem-level [`Convergence`] rule of [`crate::optim`] (window of relative
+    /// decrease AND scaled gradient), with [`ScgOptions::convergence`].
+    Converged,
     /// Netlab: x-change AND f-change below tolerance (or $g^\top g \le$ `gtol`).
     Netlab,
     /// paramz: x-change OR f-change below tolerance OR $g^\top g \le$ `gtol`.
@@ -63,6 +71,9 @@ pub struct ScgOptions {
     pub beta_decrease: f64,
     /// Reset $\beta$ to `beta_init` on each restart (paramz; default off).
     pub reset_beta_on_restart: bool,
+    /// The rule used with [`Termination::Converged`] (its measures are reported with
+    /// every termination).
+    pub convergence: Convergence,
 }
 
 impl Default for ScgOptions {
@@ -79,6 +90,7 @@ impl Default for ScgOptions {
             beta_max: 1e100,
             beta_decrease: 0.5,
             reset_beta_on_restart: false,
+            convergence: Convergence::default(),
         }
     }
 }
@@ -102,88 +114,31 @@ impl ScgOptions {
     }
 }
 
-/// Why SCG stopped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum StopReason {
-    /// The x and/or f tolerance was met (per [`Termination`]).
-    Tolerance,
-    /// $g^\top g \le$ `gtol`.
-    Gradient,
-    /// The search direction vanished ($d^\top d <$ machine epsilon).
-    TinyDirection,
-    /// `max_iters` iterations without meeting a tolerance.
-    MaxIterations,
-    /// The starting point has a non-finite value or gradient.
-    NonFiniteStart,
-}
-
-/// Summary of a run.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ScgInfo {
-    /// Iterations performed.
-    pub iterations: usize,
-    /// Closure calls (value and gradient together).
-    pub evaluations: usize,
-    /// Objective at the returned point.
-    pub value: f64,
-    /// $\lVert\nabla f\rVert_2$ at the returned point.
-    pub grad_norm: f64,
-    /// Whether a convergence test (not the iteration cap or a bad start) stopped the run.
-    pub converged: bool,
-    /// Why it stopped.
-    pub reason: StopReason,
-}
-
-/// One iteration of the trace.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ScgIter {
-    /// Objective at the current point after this iteration (Netlab's `fnow`).
-    pub value: f64,
-    /// $\lVert\nabla f\rVert_2$ at the current point.
-    pub grad_norm: f64,
-    /// $\beta$ after this iteration.
-    pub beta: f64,
-    /// Whether the step was accepted.
-    pub accepted: bool,
-}
-
-/// The optimum, its summary and the per-iteration trace.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ScgResult {
-    /// The final point.
-    pub x: Vec<f64>,
-    /// Summary.
-    pub info: ScgInfo,
-    /// One entry per iteration.
-    pub trace: Vec<ScgIter>,
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(a, b)| a * b).sum()
-}
+/// SCG's summary (the shared [`OptInfo`]).
+pub type ScgInfo = OptInfo;
+/// One SCG iteration (the shared [`OptIter`]).
+pub type ScgIter = OptIter;
+/// SCG's result (the shared [`OptResult`]).
+pub type ScgResult = OptResult;
 
 /// Minimises `f` from `x0`. `f(x, g)` returns $f(x)$ and writes $\nabla f(x)$ into `g`.
+/// A value of $+\infty$ at a trial point is a rejected step; NaN stops the run
+/// ([`StopReason::NonFinite`]).
 pub fn scg<F>(mut f: F, x0: &[f64], opts: &ScgOptions) -> ScgResult
 where
     F: FnMut(&[f64], &mut [f64]) -> f64,
 {
+    let clock = std::time::Instant::now();
     let n = x0.len();
     let mut x = x0.to_vec();
     let mut g = vec![0.0; n];
     let mut f_old = f(&x, &mut g);
     let mut evaluations = 1;
     let mut trace = Vec::new();
-    let finish = |x: Vec<f64>, value: f64, g: &[f64], iterations, evaluations, reason, trace| {
-        let converged = matches!(reason, StopReason::Tolerance | StopReason::Gradient | StopReason::TinyDirection);
-        ScgResult {
-            x,
-            info: ScgInfo { iterations, evaluations, value, grad_norm: dot(g, g).sqrt(), converged, reason },
-            trace,
-        }
-    };
     if !f_old.is_finite() || g.iter().any(|v| !v.is_finite()) {
-        return finish(x, f_old, &g, 0, evaluations, StopReason::NonFiniteStart, trace);
+        return finish(x, f_old, &g, (0, evaluations), StopReason::NonFiniteStart, Default::default(), trace);
     }
+    let mut monitor = Monitor::new(opts.convergence, f_old);
     let mut d: Vec<f64> = g.iter().map(|v| -v).collect();
     let (mut g_old, mut g_plus, mut g_new) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     let mut x_trial = vec![0.0; n];
@@ -192,6 +147,9 @@ where
     let mut beta = opts.beta_init;
     let (mut mu, mut kappa, mut theta) = (0.0, 0.0, 0.0);
     for j in 1..=opts.max_iters {
+        let stop = |x, f, g: &[f64], reason, m: &Monitor, trace, evals| {
+            finish(x, f, g, (j, evals), reason, m.measures(), trace)
+        };
         if success {
             mu = dot(&d, &g);
             if mu >= 0.0 {
@@ -200,12 +158,15 @@ where
             }
             kappa = dot(&d, &d);
             if kappa < f64::EPSILON {
-                return finish(x, f_old, &g, j - 1, evaluations, StopReason::TinyDirection, trace);
+                return finish(x, f_old, &g, (j - 1, evaluations), StopReason::TinyDirection, monitor.measures(), trace);
             }
             let sigma = opts.sigma0 / kappa.sqrt();
             x_trial.iter_mut().zip(x.iter().zip(&d)).for_each(|(t, (x, d))| *t = x + sigma * d);
             let f_plus = f(&x_trial, &mut g_plus);
             evaluations += 1;
+            if f_plus.is_nan() {
+                return stop(x, f_old, &g, StopReason::NonFinite, &monitor, trace, evaluations);
+            }
             theta = d.iter().zip(g_plus.iter().zip(&g)).map(|(d, (gp, g))| d * (gp - g)).sum::<f64>() / sigma;
             if !f_plus.is_finite() || !theta.is_finite() {
                 theta = 0.0;
@@ -220,6 +181,9 @@ where
         x_trial.iter_mut().zip(x.iter().zip(&d)).for_each(|(t, (x, d))| *t = x + alpha * d);
         let f_new = f(&x_trial, &mut g_new);
         evaluations += 1;
+        if f_new.is_nan() || g_new.iter().any(|v| v.is_nan()) {
+            return stop(x, f_old, &g, StopReason::NonFinite, &monitor, trace, evaluations);
+        }
         let big_delta = if f_new.is_finite() && g_new.iter().all(|v| v.is_finite()) {
             2.0 * (f_new - f_old) / (alpha * mu)
         } else {
@@ -235,17 +199,16 @@ where
             std::mem::swap(&mut g_old, &mut g);
             std::mem::swap(&mut g, &mut g_new);
             f_old = f_new;
+            let converged = monitor.accept(f_old, &x, &g);
             let done = match opts.termination {
-                Termination::Netlab => x_ok && f_ok,
-                Termination::Paramz => x_ok || f_ok,
-            };
-            if done {
-                trace.push(ScgIter { value: f_old, grad_norm: dot(&g, &g).sqrt(), beta, accepted: true });
-                return finish(x, f_old, &g, j, evaluations, StopReason::Tolerance, trace);
+                Termination::Netlab => (x_ok && f_ok).then_some(StopReason::Tolerance),
+                Termination::Paramz => (x_ok || f_ok).then_some(StopReason::Tolerance),
+                Termination::Converged => converged.then_some(StopReason::Converged),
             }
-            if dot(&g, &g) <= opts.gtol {
-                trace.push(ScgIter { value: f_old, grad_norm: dot(&g, &g).sqrt(), beta, accepted: true });
-                return finish(x, f_old, &g, j, evaluations, StopReason::Gradient, trace);
+            .or((dot(&g, &g) <= opts.gtol).then_some(StopReason::Gradient));
+            if let Some(reason) = done {
+                trace.push(iterate(f_old, &g, beta, true, evaluations, &clock));
+                return stop(x, f_old, &g, reason, &monitor, trace, evaluations);
             }
         }
         if big_delta < 0.25 {
@@ -264,9 +227,22 @@ where
             let gamma = g_old.iter().zip(&g).map(|(go, g)| (go - g) * g).sum::<f64>() / mu;
             d.iter_mut().zip(&g).for_each(|(d, g)| *d = gamma * *d - g);
         }
-        trace.push(ScgIter { value: f_old, grad_norm: dot(&g, &g).sqrt(), beta, accepted: success });
+        trace.push(iterate(f_old, &g, beta, success, evaluations, &clock));
     }
-    finish(x, f_old, &g, opts.max_iters, evaluations, StopReason::MaxIterations, trace)
+    let measures = monitor.measures();
+    finish(x, f_old, &g, (opts.max_iters, evaluations), StopReason::MaxIterations, measures, trace)
+}
+
+/// One trace entry.
+pub(crate) fn iterate(
+    value: f64,
+    g: &[f64],
+    beta: f64,
+    accepted: bool,
+    evaluations: usize,
+    clock: &std::time::Instant,
+) -> OptIter {
+    OptIter { value, grad_norm: dot(g, g).sqrt(), beta, accepted, evaluations, seconds: clock.elapsed().as_secs_f64() }
 }
 
 #[cfg(test)]
@@ -322,6 +298,19 @@ mod tests {
         assert!((r.x[0] - 1.0).abs() < 1e-6 && (r.x[1] - 1.0).abs() < 1e-6, "{:?}", r.x);
     }
 
+    /// The window rule of crate::optim stops SCG on Rosenbrock close to (1, 1), for the
+    /// right reason.
+    #[test]
+    fn convergence_rule_stops_rosenbrock() {
+        let convergence = Convergence { window: 3, ftol: 1e-8, gtol: 1e-5, f_typical: 1.0 };
+        let opts = ScgOptions { termination: Termination::Converged, convergence, ..Default::default() };
+        let r = scg(rosenbrock, &[-1.2, 1.0], &opts);
+        eprintln!("rosenbrock, window rule: {:?} at {:?}", r.info, r.x);
+        assert_eq!(r.info.reason, StopReason::Converged);
+        assert!(r.info.measures.rel_gradient <= 1e-5 && r.info.measures.rel_decrease <= 1e-8);
+        assert!((r.x[0] - 1.0).abs() < 1e-4 && (r.x[1] - 1.0).abs() < 1e-4, "{:?}", r.x);
+    }
+
     /// The iteration cap is reported as not converged; a NaN start stops at once; a
     /// region where f is +∞ is treated as rejected steps, not accepted.
     #[test]
@@ -337,6 +326,17 @@ mod tests {
             &ScgOptions::default(),
         );
         assert_eq!(r.info.reason, StopReason::NonFiniteStart);
+        // NaN after the start stops the run as NonFinite (not a rejected step).
+        let nan_beyond = |x: &[f64], g: &mut [f64]| {
+            g[0] = 2.0 * (x[0] - 3.0);
+            if x[0] < 2.0 {
+                (x[0] - 3.0).powi(2)
+            } else {
+                f64::NAN
+            }
+        };
+        let r = scg(nan_beyond, &[0.0], &ScgOptions { max_iters: 200, ..Default::default() });
+        assert_eq!((r.info.reason, r.info.converged), (StopReason::NonFinite, false));
         // f(x) = (x − 3)² for x < 2, +∞ beyond: the minimiser within the domain is 2⁻.
         let wall = |x: &[f64], g: &mut [f64]| {
             g[0] = 2.0 * (x[0] - 3.0);

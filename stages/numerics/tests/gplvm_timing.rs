@@ -162,3 +162,68 @@ fn timing_table() {
         );
     }
 }
+
+/// `segments` smooth random curves of `len` frames in 3-D (sums of three sinusoids per
+/// coordinate, unit scale): latents shaped like a fitted label's, with times and ids.
+fn trajectories(segments: usize, len: usize, seed: u64) -> (Vec<f64>, Vec<f64>, Vec<i64>) {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut x = Vec::with_capacity(segments * len * 3);
+    for _ in 0..segments {
+        let waves: Vec<[f64; 3]> =
+            (0..9).map(|_| [rng.gen_range(0.5..3.0), rng.gen_range(0.0..6.3), rng.gen_range(0.2..1.0)]).collect();
+        for t in 0..len {
+            let s = t as f64 / len as f64;
+            for k in 0..3 {
+                x.push(waves[3 * k..3 * k + 3].iter().map(|[f, ph, a]| a * (f * 6.3 * s + ph).sin()).sum::<f64>());
+            }
+        }
+    }
+    let times = (0..segments * len).map(|i| (i % len) as f64).collect();
+    let segs = (0..segments * len).map(|i| (i / len) as i64).collect();
+    (x, times, segs)
+}
+
+/// The connectivity prior's paths per evaluation (value and gradient, one thread) at
+/// N = 200 … 1600 on smooth trajectories of 100 frames: the exact path and the subset
+/// path at strides 2 and 3, as times, ratios exact / subset, and the subset's relative
+/// error against the exact value and gradient (it is a different function: see
+/// connectivity.rs).
+#[test]
+#[ignore]
+fn connectivity_paths() {
+    use reprise_numerics::gplvm::subset_rows;
+    let q = 3;
+    println!("| N | exact (ms) | stride 2 (ms) | exact / stride 2 | stride 3 (ms) | exact / stride 3 | value rel. err. (2 / 3) | gradient rel. err. (2 / 3) | gradient cosine (2 / 3) |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for n in [200, 400, 800, 1600] {
+        let reps = if n >= 1600 { 3 } else { 7 };
+        let (x, times, segs) = trajectories(n / 100, 100, n as u64);
+        let params = ConnectivityParams::default();
+        let mut exact = ConnectivityPrior::new(n, q, params).unwrap();
+        let mut g_exact = vec![0.0; n * q];
+        let v_exact = exact.value_grad_add(&x, &mut g_exact).unwrap().value;
+        let mut gx = vec![0.0; n * q];
+        let t_exact = median_ms(reps, || {
+            exact.value_grad_add(&x, &mut gx).unwrap();
+        });
+        let mut row = vec![];
+        for stride in [2, 3] {
+            let mut sub = ConnectivityPrior::on_subset(n, subset_rows(&times, &segs, stride), q, params).unwrap();
+            let mut g = vec![0.0; n * q];
+            let v = sub.value_grad_add(&x, &mut g).unwrap().value;
+            let t = median_ms(reps, || {
+                sub.value_grad_add(&x, &mut gx).unwrap();
+            });
+            let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
+            let diff: Vec<f64> = g.iter().zip(&g_exact).map(|(a, b)| a - b).collect();
+            let cos = g.iter().zip(&g_exact).map(|(a, b)| a * b).sum::<f64>() / (norm(&g) * norm(&g_exact));
+            row.push((t, (v - v_exact).abs() / v_exact.abs(), norm(&diff) / norm(&g_exact), cos));
+        }
+        let [(t2, e2, g2, c2), (t3, e3, g3, c3)] = [row[0], row[1]];
+        println!(
+            "| {n} | {t_exact:.1} | {t2:.2} | {:.1} | {t3:.2} | {:.1} | {e2:.2e} / {e3:.2e} | {g2:.2} / {g3:.2} | {c2:.3} / {c3:.3} |",
+            t_exact / t2,
+            t_exact / t3
+        );
+    }
+}

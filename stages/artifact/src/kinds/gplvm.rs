@@ -18,9 +18,10 @@
 //! repeat on every row of a label. The mean
 //! map is $\mu(x) = \bar y + A^\top k(x)$, $k_i(x) = \sigma_f^2e^{-\lVert x-x_i\rVert^2/(2\ell^2)}$.
 //!
-//! `gplvm_trace` — per label and SCG iteration: `label`, `iteration` (1, 2, …), `value`
-//! (objective $E$ at the current point), `grad_norm` ($\lVert\nabla E\rVert_2$), `beta`
-//! (SCG's scale), `accepted`.
+//! `gplvm_trace` — per label and optimiser iteration: `label`, `iteration` (1, 2, …),
+//! `value` (objective $E$ at the current point), `grad_norm` ($\lVert\nabla E\rVert_2$),
+//! `beta` (SCG's scale; L-BFGS's accepted step length), `accepted`, `evaluations`
+//! (cumulative) and `seconds` (since the optimiser started).
 //!
 //! `gplvm_fits` — one row per label: see [`FitSummary`].
 
@@ -35,9 +36,9 @@ pub const GPLVM_LATENTS: Kind = Kind { name: "gplvm_latents", version: 1 };
 /// Kind of the models table.
 pub const GPLVM_MODELS: Kind = Kind { name: "gplvm_models", version: 1 };
 /// Kind of the trace table.
-pub const GPLVM_TRACE: Kind = Kind { name: "gplvm_trace", version: 1 };
+pub const GPLVM_TRACE: Kind = Kind { name: "gplvm_trace", version: 2 };
 /// Kind of the fit summary table.
-pub const GPLVM_FITS: Kind = Kind { name: "gplvm_fits", version: 1 };
+pub const GPLVM_FITS: Kind = Kind { name: "gplvm_fits", version: 2 };
 
 /// Per-frame latent points of every model.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -234,10 +235,14 @@ pub struct Trace {
     pub value: Vec<f64>,
     /// Gradient norm there.
     pub grad_norm: Vec<f64>,
-    /// SCG's β after the iteration.
+    /// SCG's β after the iteration (L-BFGS: the step length).
     pub beta: Vec<f64>,
     /// Whether the iteration's step was accepted.
     pub accepted: Vec<bool>,
+    /// Evaluations so far.
+    pub evaluations: Vec<i64>,
+    /// Seconds since the optimiser started.
+    pub seconds: Vec<f64>,
 }
 
 /// Writes the traces atomically.
@@ -248,7 +253,9 @@ pub fn write_trace(path: &Path, t: &Trace, provenance: &Provenance) -> Result<()
         .f64("value", t.value.clone())
         .f64("grad_norm", t.grad_norm.clone())
         .f64("beta", t.beta.clone())
-        .bool("accepted", t.accepted.clone());
+        .bool("accepted", t.accepted.clone())
+        .i64("evaluations", t.evaluations.clone())
+        .f64("seconds", t.seconds.clone());
     crate::table::write(path, GPLVM_TRACE, cols, provenance, &[])
 }
 
@@ -263,7 +270,14 @@ pub struct FitSummary {
     pub d: i64,
     /// Latent dimension q.
     pub q: i64,
-    /// SCG iterations.
+    /// The optimiser (`lbfgs`, `scg`).
+    pub optimizer: String,
+    /// How the connectivity prior entered the fit (`exact`, `staged`, `subset`).
+    pub connectivity_path: String,
+    /// Iterations per stage of the fit (one entry, or the subset stage then the exact one),
+    /// written as `stage_iterations` = "i1+i2".
+    pub stage_iterations: Vec<i64>,
+    /// Optimiser iterations.
     pub iterations: i64,
     /// Objective evaluations (value and gradient together).
     pub evaluations: i64,
@@ -279,13 +293,19 @@ pub struct FitSummary {
     pub connectivity: f64,
     /// $\lVert\nabla E\rVert_2$ at the optimum.
     pub grad_norm: f64,
+    /// The convergence rule's mean relative decrease of $E$ per iteration over its
+    /// window, at the optimum (`inf` if the window never filled).
+    pub rel_decrease: f64,
+    /// The convergence rule's scaled gradient at the optimum.
+    pub rel_gradient: f64,
     /// Jitter added to the diagonal of $K$.
     pub jitter: f64,
     /// Jitter the dynamics prior's blocks needed (0 without the prior).
     pub dynamics_jitter: f64,
-    /// Whether a convergence test stopped the optimiser.
+    /// Whether a convergence test stopped the optimiser (never true at the iteration cap).
     pub converged: bool,
-    /// Why it stopped: `tolerance`, `gradient`, `tiny-direction`, `max-iterations`.
+    /// Why it stopped: `converged` (the window rule), `tolerance` (Netlab's step test),
+    /// `gradient`, `tiny-direction`, or, not converged, `max-iterations`, `stalled`.
     pub stop_reason: String,
     /// Wall-clock seconds of the fit.
     pub seconds: f64,
@@ -302,11 +322,19 @@ pub struct FitSummary {
 pub fn write_fits(path: &Path, rows: &[FitSummary], provenance: &Provenance) -> Result<()> {
     let i = |f: fn(&FitSummary) -> i64| rows.iter().map(f).collect::<Vec<_>>();
     let x = |f: fn(&FitSummary) -> f64| rows.iter().map(f).collect::<Vec<_>>();
+    let stage_iterations: Vec<String> = rows
+        .iter()
+        .map(|r| r.stage_iterations.iter().map(i64::to_string).collect::<Vec<_>>().join("+"))
+        .collect();
+    let stage_iterations: Vec<&str> = stage_iterations.iter().map(String::as_str).collect();
     let cols = Columns::new()
         .str("label", &rows.iter().map(|r| r.label.as_str()).collect::<Vec<_>>())
         .i64("frames", i(|r| r.frames))
         .i64("d", i(|r| r.d))
         .i64("q", i(|r| r.q))
+        .str("optimizer", &rows.iter().map(|r| r.optimizer.as_str()).collect::<Vec<_>>())
+        .str("connectivity_path", &rows.iter().map(|r| r.connectivity_path.as_str()).collect::<Vec<_>>())
+        .str("stage_iterations", &stage_iterations)
         .i64("iterations", i(|r| r.iterations))
         .i64("evaluations", i(|r| r.evaluations))
         .f64("initial_objective", x(|r| r.initial_objective))
@@ -315,6 +343,8 @@ pub fn write_fits(path: &Path, rows: &[FitSummary], provenance: &Provenance) -> 
         .f64("dynamics", x(|r| r.dynamics))
         .f64("connectivity", x(|r| r.connectivity))
         .f64("grad_norm", x(|r| r.grad_norm))
+        .f64("rel_decrease", x(|r| r.rel_decrease))
+        .f64("rel_gradient", x(|r| r.rel_gradient))
         .f64("jitter", x(|r| r.jitter))
         .f64("dynamics_jitter", x(|r| r.dynamics_jitter))
         .bool("converged", rows.iter().map(|r| r.converged).collect())

@@ -6,24 +6,42 @@ fn main() {
     reprise_stagekit::main("reprise-gplvm", || {
         if let Some(fits) = reprise_gplvm::run(&args)? {
             eprintln!(
-                "{:<12} {:>6} {:>3} {:>6} {:>14} {:>12} {:>9} {:>10} {:>8}  held-out mesh RMS (GPLVM / PCA-q)",
-                "label", "frames", "d", "iters", "objective", "NLL", "|grad|", "stop", "seconds"
+                "{:<12} {:>6} {:>3} {:>11} {:>6} {:>13} {:>12} {:>10} {:>11} {:>8} {:>8} {:>14} {:>8}  held-out mesh RMS (GPLVM / PCA-q)",
+                "label",
+                "frames",
+                "d",
+                "iters",
+                "evals",
+                "objective",
+                "NLL",
+                "dynamics",
+                "connect.",
+                "rel.dec",
+                "rel.grad",
+                "stop",
+                "seconds"
             );
             for f in &fits {
                 let held = match (f.heldout_gplvm_mesh_rmse, f.heldout_pca_mesh_rmse) {
                     (Some(g), Some(p)) => format!("{g:.4} / {p:.4} ({} frames)", f.heldout_frames),
                     _ => "-".into(),
                 };
+                let stages = f.stage_iterations.iter().map(i64::to_string).collect::<Vec<_>>().join("+");
+                let stop = if f.converged { f.stop_reason.clone() } else { format!("NOT {}", f.stop_reason) };
                 eprintln!(
-                    "{:<12} {:>6} {:>3} {:>6} {:>14.3} {:>12.3} {:>9.2e} {:>10} {:>8.1}  {held}",
+                    "{:<12} {:>6} {:>3} {:>11} {:>6} {:>13.3} {:>12.3} {:>10.3} {:>11.3} {:>8.1e} {:>8.1e} {:>14} {:>8.1}  {held}",
                     f.label,
                     f.frames,
                     f.d,
-                    f.iterations,
+                    stages,
+                    f.evaluations,
                     f.objective,
                     f.neg_log_likelihood,
-                    f.grad_norm,
-                    f.stop_reason,
+                    f.dynamics,
+                    f.connectivity,
+                    f.rel_decrease,
+                    f.rel_gradient,
+                    stop,
                     f.seconds
                 );
             }

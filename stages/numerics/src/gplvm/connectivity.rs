@@ -30,6 +30,16 @@
 //!
 //! Cost per value+gradient: the eigendecomposition ($\approx 9N^3$ flops) and about
 //! $7N^3$ flops of products; memory four $N\times N$ matrices plus faer's scratch.
+//!
+//! **Subset path** ([`ConnectivityPrior::on_subset`]): the same prior over $m$ chosen
+//! rows only — the prior the label would have if it had only those frames ($\beta$ and
+//! $w_c$ scaled with $m$, so $w_c(500/m)^2$ keeps the prior's total weight), with zero
+//! gradient on the other rows. [`subset_rows`] picks every `stride`-th frame of each
+//! segment in time order plus each segment's last frame, so the subsampled trajectories
+//! keep their shape and ends. Cost $\approx (m/N)^3$ of the exact path. It is a different
+//! function, not an approximation with a vanishing error: the fit uses it as a cheap
+//! first stage before the exact prior (see `fit`'s schedule), and its error against the
+//! exact prior is measured by `tests/connectivity_paths.rs`.
 
 use faer::linalg::evd::{self_adjoint_evd, self_adjoint_evd_scratch, ComputeEigenvectors};
 use faer::linalg::matmul::matmul;
@@ -130,10 +140,34 @@ pub struct ConnectivityEval {
     pub clamped: usize,
 }
 
+/// The rows of a [`ConnectivityPrior::on_subset`]: per segment (rows with equal ids, in
+/// order of `times`), every `stride`-th row from the first, and the last. `stride = 1`
+/// is every row.
+pub fn subset_rows(times: &[f64], segments: &[i64], stride: usize) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..times.len()).collect();
+    order.sort_by(|&a, &b| segments[a].cmp(&segments[b]).then(times[a].total_cmp(&times[b])));
+    let mut rows = Vec::new();
+    for run in order.chunk_by(|&a, &b| segments[a] == segments[b]) {
+        rows.extend(run.iter().step_by(stride.max(1)));
+        if (run.len() - 1) % stride.max(1) != 0 {
+            rows.push(run[run.len() - 1]);
+        }
+    }
+    rows.sort_unstable();
+    rows
+}
+
 /// Workspace of the connectivity prior for `N` points in `q` dimensions.
 #[derive(Debug)]
 pub struct ConnectivityPrior {
+    /// Points the prior is computed over (N, or m on a subset).
     n: usize,
+    /// Rows of the input (N).
+    n_full: usize,
+    /// The subset's rows, if any.
+    rows: Option<Vec<usize>>,
+    xs: Vec<f64>,
+    gs: Vec<f64>,
     q: usize,
     params: ConnectivityParams,
     w: Mat<f64>,
@@ -161,6 +195,10 @@ impl ConnectivityPrior {
         let scratch = self_adjoint_evd_scratch::<f64>(n, ComputeEigenvectors::Yes, params.par, Default::default());
         Ok(Self {
             n,
+            n_full: n,
+            rows: None,
+            xs: vec![],
+            gs: vec![],
             q,
             params,
             w: Mat::zeros(n, n),
@@ -184,17 +222,64 @@ impl ConnectivityPrior {
         &self.params
     }
 
-    /// Number of points $N$.
+    /// The prior over the rows `rows` (distinct, each `< n`) of an `n`-row input only
+    /// (see the module docs).
+    pub fn on_subset(n: usize, rows: Vec<usize>, q: usize, params: ConnectivityParams) -> Result<Self, GplvmError> {
+        let mut seen = vec![false; n];
+        for &r in &rows {
+            if r >= n || std::mem::replace(&mut seen[r], true) {
+                return Err(GplvmError::Shape(format!("subset row {r} repeated or not below N = {n}")));
+            }
+        }
+        let mut prior = Self::new(rows.len(), q, params)?;
+        prior.n_full = n;
+        prior.xs = vec![0.0; rows.len() * q];
+        prior.gs = vec![0.0; rows.len() * q];
+        prior.rows = Some(rows);
+        Ok(prior)
+    }
+
+    /// Number of rows $N$ of the input.
     pub fn n(&self) -> usize {
+        self.n_full
+    }
+
+    /// Number of points the prior is computed over ($N$, or $m$ on a subset).
+    pub fn points(&self) -> usize {
         self.n
     }
 
-    /// Weights, eigendecomposition, the lower triangle of $K_c$ in `b2`, and the value.
-    fn value_pass(&mut self, x: &[f64]) -> Result<ConnectivityEval, GplvmError> {
-        let (n, q) = (self.n, self.q);
-        if x.len() != n * q {
-            return Err(GplvmError::Shape(format!("x has {} values, expected N·q = {n}·{q}", x.len())));
+    /// Checks `x`'s length and, on a subset, gathers its rows into `xs`.
+    fn gather(&mut self, x: &[f64]) -> Result<(), GplvmError> {
+        let q = self.q;
+        if x.len() != self.n_full * q {
+            return Err(GplvmError::Shape(format!("x has {} values, expected N·q = {}·{q}", x.len(), self.n_full)));
         }
+        if let Some(rows) = &self.rows {
+            for (dst, &r) in self.xs.chunks_exact_mut(q).zip(rows) {
+                dst.copy_from_slice(&x[r * q..(r + 1) * q]);
+            }
+        }
+        Ok(())
+    }
+
+    /// Weights, eigendecomposition, the lower triangle of $K_c$ in `b2`, and the value, at
+    /// the (gathered) input.
+    fn value_pass(&mut self, x: &[f64]) -> Result<ConnectivityEval, GplvmError> {
+        self.gather(x)?;
+        if self.rows.is_some() {
+            let xs = std::mem::take(&mut self.xs);
+            let r = self.value_points(&xs);
+            self.xs = xs;
+            r
+        } else {
+            self.value_points(x)
+        }
+    }
+
+    /// [`Self::value_pass`] on the `points × q` coordinates `x`.
+    fn value_points(&mut self, x: &[f64]) -> Result<ConnectivityEval, GplvmError> {
+        let (n, q) = (self.n, self.q);
         if x.iter().any(|v| !v.is_finite()) {
             return Err(GplvmError::NonFinite("latent coordinate"));
         }
@@ -298,11 +383,28 @@ impl ConnectivityPrior {
 
     /// Returns $E_C$ and **adds** $\nabla_X E_C$ to `grad` (row-major `N × q`).
     pub fn value_grad_add(&mut self, x: &[f64], grad: &mut [f64]) -> Result<ConnectivityEval, GplvmError> {
-        let (n, q) = (self.n, self.q);
-        if grad.len() != n * q {
-            return Err(GplvmError::Shape(format!("grad has {} values, expected {}", grad.len(), n * q)));
+        let q = self.q;
+        if grad.len() != self.n_full * q {
+            return Err(GplvmError::Shape(format!("grad has {} values, expected {}", grad.len(), self.n_full * q)));
         }
-        let eval = self.value_pass(x)?;
+        self.gather(x)?;
+        let Some(rows) = self.rows.take() else {
+            return self.grad_points(x, grad);
+        };
+        let (xs, mut gs) = (std::mem::take(&mut self.xs), std::mem::take(&mut self.gs));
+        gs.fill(0.0);
+        let r = self.grad_points(&xs, &mut gs);
+        for (g, &row) in gs.chunks_exact(q).zip(&rows) {
+            grad[row * q..(row + 1) * q].iter_mut().zip(g).for_each(|(a, b)| *a += b);
+        }
+        (self.xs, self.gs, self.rows) = (xs, gs, Some(rows));
+        r
+    }
+
+    /// [`Self::value_grad_add`] on the `points × q` coordinates `x`.
+    fn grad_points(&mut self, x: &[f64], grad: &mut [f64]) -> Result<ConnectivityEval, GplvmError> {
+        let (n, q) = (self.n, self.q);
+        let eval = self.value_points(x)?;
         let par = self.params.par;
         let (beta, weight, epsilon) = (eval.beta, eval.weight, eval.epsilon);
         let min = self.params.min_entry;
@@ -600,6 +702,31 @@ mod tests {
         let v_after = prior.value(&x).unwrap().value;
         assert!(v_after < v_before, "{v_before} -> {v_after}");
         assert!(after < 0.9 * before, "centroid distance / spread: {before} -> {after}");
+    }
+
+    /// The subset path: the value is the prior of the gathered rows alone, the gradient
+    /// matches central differences on the full input (1e-7), and rows outside the subset
+    /// get none.
+    #[test]
+    fn subset_gradient_matches_finite_differences() {
+        let (n, q) = (23, 3);
+        let (x, _) = random_problem(n, 1, q, 27);
+        let times: Vec<f64> = (0..n).map(|i| (i % 12) as f64).collect();
+        let segs: Vec<i64> = (0..n).map(|i| (i / 12) as i64).collect();
+        let rows = subset_rows(&times, &segs, 3);
+        assert_eq!(rows, [0, 3, 6, 9, 11, 12, 15, 18, 21, 22]);
+        let mut sub = ConnectivityPrior::on_subset(n, rows.clone(), q, params(4.0, 30.0)).unwrap();
+        let mut g = vec![0.0; n * q];
+        let ev = sub.value_grad_add(&x, &mut g).unwrap();
+        let gathered: Vec<f64> = rows.iter().flat_map(|&r| x[r * q..(r + 1) * q].to_vec()).collect();
+        let mut alone = ConnectivityPrior::new(rows.len(), q, params(4.0, 30.0)).unwrap();
+        assert_eq!(alone.value(&gathered).unwrap().value, ev.value);
+        let fd = central_diff(&x, 1e-4, |xp| sub.value(xp).unwrap().value);
+        let err = max_rel_err(&g, &fd);
+        eprintln!("{}:{} max relative error {err:.1e}", file!(), line!());
+        assert!(err < 1e-7, "{err:e}");
+        assert!((0..n).filter(|i| !rows.contains(i)).all(|i| g[i * q..(i + 1) * q].iter().all(|v| *v == 0.0)));
+        assert!(ConnectivityPrior::on_subset(n, vec![1, 1], q, params(4.0, 1.0)).is_err());
     }
 
     #[test]

@@ -14,29 +14,152 @@
 //!   [`FitConfig::init_white_ratio`] (method.md §1.4 suggests 0.01–0.1).
 //! - **Priors**: the dynamics prior over each segment's frame times and the connectivity
 //!   prior, each optional.
+//! - **Optimiser** ([`Optimizer`]): SCG (the paper's) or L-BFGS, both stopped by the
+//!   convergence rule of [`crate::optim`] with $f_{typ} = N\cdot d$ (the number of
+//!   modelled values), unless SCG is asked for its Netlab/paramz step tests. A NaN in the
+//!   objective or its gradient stops the fit with [`GplvmError::Diverged`]; a point where
+//!   $K$ stays indefinite after every jitter escalation is $+\infty$, a rejected step.
 
 use super::params::JitterUsed;
 use super::{
-    ConnectivityParams, ConnectivityPrior, DynamicsParams, DynamicsPrior, EvalInfo, GplvmError, Hyper, Likelihood,
+    subset_rows, ConnectivityParams, ConnectivityPrior, DynamicsParams, DynamicsPrior, EvalInfo, GplvmError, Hyper, Likelihood,
     LikelihoodConfig, Objective, Predictor,
 };
-use crate::scg::{scg, ScgInfo, ScgIter, ScgOptions};
+use crate::lbfgs::{lbfgs, LbfgsOptions};
+use crate::optim::{Convergence, OptInfo, OptIter, OptResult, StopReason};
+use crate::scg::{scg, ScgOptions, Termination};
 
-/// Everything a fit needs besides the data.
+/// The optimiser of a fit, with its settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Optimizer {
+    /// Netlab's scaled conjugate gradients (the paper's choice).
+    Scg(ScgOptions),
+    /// Limited-memory BFGS.
+    Lbfgs(LbfgsOptions),
+}
+
+impl Optimizer {
+    /// SCG stopped by `convergence`, at most `max_iters` iterations.
+    pub fn scg(convergence: Convergence, max_iters: usize) -> Self {
+        Self::Scg(ScgOptions { max_iters, termination: Termination::Converged, convergence, ..Default::default() })
+    }
+
+    /// L-BFGS stopped by `convergence`, at most `max_iters` iterations.
+    pub fn lbfgs(convergence: Convergence, max_iters: usize) -> Self {
+        Self::Lbfgs(LbfgsOptions { max_iters, convergence, ..Default::default() })
+    }
+
+    /// `"scg"` or `"lbfgs"`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Scg(_) => "scg",
+            Self::Lbfgs(_) => "lbfgs",
+        }
+    }
+
+    /// The iteration cap.
+    pub fn max_iters(&self) -> usize {
+        match self {
+            Self::Scg(o) => o.max_iters,
+            Self::Lbfgs(o) => o.max_iters,
+        }
+    }
+
+    /// The same optimiser with another iteration cap.
+    fn with_max_iters(mut self, max_iters: usize) -> Self {
+        match &mut self {
+            Self::Scg(o) => o.max_iters = max_iters,
+            Self::Lbfgs(o) => o.max_iters = max_iters,
+        }
+        self
+    }
+
+    /// The same optimiser with the convergence rule's $f_{typ}$ set.
+    fn with_f_typical(mut self, f_typical: f64) -> Self {
+        match &mut self {
+            Self::Scg(o) => o.convergence.f_typical = f_typical,
+            Self::Lbfgs(o) => o.convergence.f_typical = f_typical,
+        }
+        self
+    }
+
+    /// Minimises `f` from `x0`.
+    pub fn run(&self, f: impl FnMut(&[f64], &mut [f64]) -> f64, x0: &[f64]) -> OptResult {
+        match self {
+            Self::Scg(o) => scg(f, x0, o),
+            Self::Lbfgs(o) => lbfgs(f, x0, o),
+        }
+    }
+}
+
+impl Default for Optimizer {
+    fn default() -> Self {
+        Self::lbfgs(Convergence::default(), 10_000)
+    }
+}
+
+/// How the connectivity prior enters the fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ConnectivityPath {
+    /// The exact prior throughout.
+    Exact,
+    /// First the prior on every `stride`-th frame of each segment
+    /// ([`ConnectivityPrior::on_subset`]) to convergence, then the exact prior to
+    /// convergence from there: the result is converged on the exact objective.
+    Staged {
+        /// Subset stride (2 keeps about half the frames).
+        stride: usize,
+    },
+    /// The subset prior throughout (a different, cheaper objective); the exact one is
+    /// only evaluated at the end, for the report.
+    Subset {
+        /// Subset stride.
+        stride: usize,
+    },
+}
+
+impl ConnectivityPath {
+    /// `"exact"`, `"staged"` or `"subset"`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Exact => "exact",
+            Self::Staged { .. } => "staged",
+            Self::Subset { .. } => "subset",
+        }
+    }
+
+    fn stride(&self) -> Option<usize> {
+        match *self {
+            Self::Exact => None,
+            Self::Staged { stride } | Self::Subset { stride } => Some(stride),
+        }
+    }
+}
+
+/// Everything a fit needs besides the data. The optimiser's iteration cap is for the
+/// whole fit (all stages together).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FitConfig {
     /// Latent dimension $q$ (the paper: 3).
     pub q: usize,
     /// Initial $\sigma_w^2 / \sigma_f^2$ (default 0.05).
     pub init_white_ratio: f64,
+    /// Keep $\ell$ at its initial 1 (default true). The likelihood depends on $X/\ell$
+    /// only and the connectivity prior is scale invariant, so with $\ell$ free the
+    /// dynamics prior (densest at $X = 0$) shrinks $X$ and $\ell$ together without end:
+    /// the objective then has no minimiser and no fit converges. Fixing $\ell$ is a
+    /// choice of units for $X$ that loses nothing in the likelihood.
+    pub fix_lengthscale: bool,
     /// Numerical settings of the likelihood (jitter, white floor, parallelism).
     pub likelihood: LikelihoodConfig,
     /// The dynamics prior's fixed hyperparameters, or `None` to leave it out.
     pub dynamics: Option<DynamicsParams>,
     /// The connectivity prior's parameters, or `None` to leave it out.
     pub connectivity: Option<ConnectivityParams>,
-    /// The optimiser.
-    pub scg: ScgOptions,
+    /// How the connectivity prior enters the fit.
+    pub connectivity_path: ConnectivityPath,
+    /// The optimiser (its convergence rule's $f_{typ}$ is set to $N\cdot d$ by [`fit`]).
+    pub optimizer: Optimizer,
 }
 
 impl Default for FitConfig {
@@ -44,10 +167,12 @@ impl Default for FitConfig {
         Self {
             q: 3,
             init_white_ratio: 0.05,
+            fix_lengthscale: true,
             likelihood: LikelihoodConfig::default(),
             dynamics: Some(DynamicsParams::default()),
             connectivity: Some(ConnectivityParams::default()),
-            scg: ScgOptions::default(),
+            connectivity_path: ConnectivityPath::Exact,
+            optimizer: Optimizer::default(),
         }
     }
 }
@@ -77,10 +202,13 @@ pub struct Fit {
     pub offset: Vec<f64>,
     /// The predictor at the optimum (holds $K^{-1}(Y - \text{offset})$).
     pub predictor: Predictor,
-    /// The optimiser's summary.
-    pub scg: ScgInfo,
+    /// The optimiser's summary (of the last stage, with iterations and evaluations
+    /// summed over the stages).
+    pub info: OptInfo,
+    /// Iterations of each stage (one stage, or the subset stage then the exact one).
+    pub stage_iterations: Vec<usize>,
     /// The optimiser's per-iteration trace.
-    pub trace: Vec<ScgIter>,
+    pub trace: Vec<OptIter>,
     /// The objective's parts at the start.
     pub initial: EvalInfo,
     /// The objective's parts at the optimum.
@@ -174,26 +302,102 @@ pub fn fit(data: FitData<'_>, config: &FitConfig, mut on_evaluation: impl FnMut(
     let dynamics = config.dynamics.map(|p| DynamicsPrior::new(data.times, data.segments, q, p)).transpose()?;
     let dynamics_jitter = dynamics.as_ref().map(DynamicsPrior::jitter_used);
     let connectivity = config.connectivity.map(|p| ConnectivityPrior::new(n, q, p)).transpose()?;
+    let subset = match (config.connectivity, config.connectivity_path.stride()) {
+        (Some(p), Some(stride)) => {
+            Some(ConnectivityPrior::on_subset(n, subset_rows(data.times, data.segments, stride), q, p)?)
+        }
+        _ => None,
+    };
     let mut objective = Objective::new(likelihood, dynamics, connectivity)?;
     let layout = objective.layout();
     let p0 = layout.pack(&x0, &hyper0);
     let mut grad = vec![0.0; p0.len()];
     let initial = objective.try_evaluate(&p0, &mut grad)?;
-    let result = scg(
+    let optimizer = config.optimizer.with_f_typical((n * d) as f64);
+    let mut runs = Vec::new();
+    let mut start = p0;
+    // The log ℓ entry, whose gradient is zeroed when ℓ is fixed (so no optimiser moves it).
+    let fixed = config.fix_lengthscale.then_some(n * q + 1);
+    if let Some(subset) = subset {
+        let exact = objective.set_connectivity(Some(subset));
+        runs.push(optimise(&mut objective, &optimizer, &start, fixed, &mut on_evaluation)?);
+        objective.set_connectivity(exact);
+        start = runs[0].x.clone();
+    }
+    // The cap is for the whole fit: the exact stage gets what the subset stage left.
+    let left = optimizer.max_iters() - runs.first().map_or(0, |r| r.info.iterations);
+    if runs.is_empty() || (left > 0 && !matches!(config.connectivity_path, ConnectivityPath::Subset { .. })) {
+        let optimizer = optimizer.with_max_iters(left);
+        runs.push(optimise(&mut objective, &optimizer, &start, fixed, &mut on_evaluation)?);
+    }
+    let result = merge(runs);
+    // The optimiser's last call may have been a rejected trial: evaluate the returned point.
+    let last = objective.try_evaluate(&result.0.x, &mut grad)?;
+    let hyper = layout.hyper(&result.0.x);
+    let x = layout.x(&result.0.x).to_vec();
+    let predictor = Predictor::new(&x, &y, d, hyper, &config.likelihood)?;
+    let (result, stage_iterations) = result;
+    Ok(Fit {
+        x,
+        hyper,
+        offset,
+        predictor,
+        info: result.info,
+        stage_iterations,
+        trace: result.trace,
+        initial,
+        last,
+        dynamics_jitter,
+    })
+}
+
+/// One optimiser run on `objective` (with the parameter `fixed` held); a NaN stops it
+/// with [`GplvmError::Diverged`].
+fn optimise(
+    objective: &mut Objective,
+    optimizer: &Optimizer,
+    start: &[f64],
+    fixed: Option<usize>,
+    on_evaluation: &mut impl FnMut(f64),
+) -> Result<OptResult, GplvmError> {
+    let mut evaluations = 0;
+    let mut failure = None;
+    let result = optimizer.run(
         |p, g| {
             let v = objective.evaluate(p, g);
+            if let Some(i) = fixed {
+                g[i] = 0.0;
+            }
+            evaluations += 1;
+            if v.is_nan() && failure.is_none() {
+                failure = objective.last().error.clone();
+            }
             on_evaluation(v);
             v
         },
-        &p0,
-        &config.scg,
+        start,
     );
-    // The optimiser's last call may have been a rejected trial: evaluate the returned point.
-    let last = objective.try_evaluate(&result.x, &mut grad)?;
-    let hyper = layout.hyper(&result.x);
-    let x = layout.x(&result.x).to_vec();
-    let predictor = Predictor::new(&x, &y, d, hyper, &config.likelihood)?;
-    Ok(Fit { x, hyper, offset, predictor, scg: result.info, trace: result.trace, initial, last, dynamics_jitter })
+    if result.info.reason == StopReason::NonFinite {
+        let cause = failure.map_or_else(|| "NaN".to_string(), |e| e.to_string());
+        return Err(GplvmError::Diverged { iteration: result.info.iterations, evaluations, cause });
+    }
+    Ok(result)
+}
+
+/// The runs of a staged fit as one: the last run's point and summary with iterations and
+/// evaluations summed, the traces concatenated (evaluations and seconds cumulative), and
+/// each run's iterations.
+fn merge(runs: Vec<OptResult>) -> (OptResult, Vec<usize>) {
+    let stages = runs.iter().map(|r| r.info.iterations).collect();
+    let mut runs = runs.into_iter();
+    let mut total = runs.next().expect("at least one run");
+    for r in runs {
+        let (evals, secs) = (total.info.evaluations, total.trace.last().map_or(0.0, |t| t.seconds));
+        total.trace.extend(r.trace.iter().map(|t| OptIter { evaluations: t.evaluations + evals, seconds: t.seconds + secs, ..*t }));
+        let info = OptInfo { iterations: total.info.iterations + r.info.iterations, evaluations: evals + r.info.evaluations, ..r.info };
+        total = OptResult { x: r.x, info, trace: total.trace };
+    }
+    (total, stages)
 }
 
 #[cfg(test)]
@@ -244,15 +448,15 @@ mod tests {
         let (mut y, times, segs) = data(n, d);
         y.iter_mut().enumerate().for_each(|(i, v)| *v += (i % d) as f64); // not centred
         let config = FitConfig {
-            scg: ScgOptions { max_iters: 200, ..Default::default() },
+            optimizer: Optimizer::Scg(ScgOptions { max_iters: 200, ..Default::default() }),
             connectivity: Some(ConnectivityParams { weight: 1e-3, ..Default::default() }),
             ..Default::default()
         };
         let mut evals = 0;
         let f = fit(FitData { y: &y, d, times: &times, segments: &segs }, &config, |_| evals += 1).unwrap();
-        assert_eq!(evals, f.scg.evaluations);
+        assert_eq!(evals, f.info.evaluations);
         assert!(f.last.value < f.initial.value - 10.0, "{} → {}", f.initial.value, f.last.value);
-        assert!((f.last.value - f.scg.value).abs() < 1e-9 * f.scg.value.abs().max(1.0));
+        assert!((f.last.value - f.info.value).abs() < 1e-9 * f.info.value.abs().max(1.0));
         assert!(f.last.dynamics != 0.0 && f.last.connectivity != 0.0);
         assert!((f.offset[3] - 3.0).abs() < 0.5);
         let (mut mu, mut sq, mut sq0) = (vec![0.0; d], 0.0, 0.0);
@@ -267,9 +471,65 @@ mod tests {
             sq < 0.1 * sq0,
             "training reconstruction {sq} vs variance {sq0}; {:?} {:?} {:?}",
             f.hyper,
-            f.scg,
+            f.info,
             f.last
         );
+    }
+
+    /// Under the default configuration (L-BFGS, the window rule, both priors, the staged
+    /// connectivity path) a small fit converges for the rule's reason: the measures are
+    /// below the tolerances, the trace's last window really is flat, and it stops well
+    /// before the cap. SCG on the exact path converges by the same rule to a similar
+    /// objective.
+    #[test]
+    fn default_fit_converges_for_the_right_reason() {
+        let (n, d) = (60, 5);
+        let (y, times, segs) = data(n, d);
+        let config = FitConfig {
+            connectivity: Some(ConnectivityParams { weight: 1e-3, ..Default::default() }),
+            connectivity_path: ConnectivityPath::Staged { stride: 2 },
+            likelihood: LikelihoodConfig { white_floor: 1e-3, ..Default::default() },
+            ..Default::default()
+        };
+        let data = FitData { y: &y, d, times: &times, segments: &segs };
+        let f = fit(data, &config, |_| ()).unwrap();
+        let rule = Convergence::default();
+        eprintln!("{:?} stages {:?}", f.info, f.stage_iterations);
+        assert_eq!((f.info.reason, f.info.converged), (StopReason::Converged, true));
+        assert_eq!(f.stage_iterations.len(), 2);
+        assert!(f.info.measures.rel_gradient <= rule.gtol && f.info.measures.rel_decrease <= rule.ftol);
+        assert!(f.info.iterations < 2000, "{:?}", f.info);
+        let tail = &f.trace[f.trace.len() - rule.window - 1..];
+        let scale = f.info.value.abs().max((n * d) as f64);
+        assert!((tail[0].value - f.info.value) / scale <= rule.window as f64 * rule.ftol);
+        assert_eq!(f.trace.len(), f.info.iterations);
+        let scg_config = FitConfig {
+            connectivity_path: ConnectivityPath::Exact,
+            optimizer: Optimizer::scg(Convergence::default(), 10_000),
+            ..config
+        };
+        let g = fit(data, &scg_config, |_| ()).unwrap();
+        eprintln!("SCG: {:?}", g.info);
+        assert_eq!(g.info.reason, StopReason::Converged);
+        assert!((g.last.value - f.last.value).abs() < 0.05 * f.last.value.abs(), "{} vs {}", g.last.value, f.last.value);
+    }
+
+    /// A fit that cannot converge within the cap (a connectivity weight 10⁶ times the
+    /// default's, 25 iterations) says so with its numbers: not converged, max-iterations,
+    /// measures above the tolerances, its objective parts finite.
+    #[test]
+    fn capped_fit_is_not_converged() {
+        let (y, times, segs) = data(40, 4);
+        let config = FitConfig {
+            connectivity: Some(ConnectivityParams { weight: 1e3, ..Default::default() }),
+            optimizer: Optimizer::lbfgs(Convergence::default(), 25),
+            ..Default::default()
+        };
+        let f = fit(FitData { y: &y, d: 4, times: &times, segments: &segs }, &config, |_| ()).unwrap();
+        assert_eq!((f.info.reason, f.info.converged, f.info.iterations), (StopReason::MaxIterations, false, 25));
+        let m = f.info.measures;
+        assert!(m.rel_gradient > Convergence::default().gtol || m.rel_decrease > Convergence::default().ftol, "{m:?}");
+        assert!(f.last.value.is_finite() && f.last.connectivity.is_finite());
     }
 
     /// Bad input: too few frames, NaN, fewer columns than q, a one-frame segment (a
@@ -278,7 +538,7 @@ mod tests {
     #[test]
     fn bad_input_is_an_error_or_a_documented_fallback() {
         let (y, times, segs) = data(40, 4);
-        let cfg = FitConfig { scg: ScgOptions { max_iters: 5, ..Default::default() }, ..Default::default() };
+        let cfg = FitConfig { optimizer: Optimizer::scg(Convergence::default(), 5), ..Default::default() };
         let few = FitData { y: &y[..4 * 4], d: 4, times: &times[..4], segments: &segs[..4] };
         assert!(fit(few, &cfg, |_| ()).unwrap_err().to_string().contains("at least 5 frames"));
         let mut bad = y.clone();

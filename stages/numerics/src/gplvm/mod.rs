@@ -43,9 +43,9 @@ pub mod predict;
 #[cfg(test)]
 pub(crate) mod testutil;
 
-pub use connectivity::{ConnectivityEval, ConnectivityParams, ConnectivityPrior};
+pub use connectivity::{subset_rows, ConnectivityEval, ConnectivityParams, ConnectivityPrior};
 pub use dynamics::{DynamicsParams, DynamicsPrior};
-pub use fit::{fit, Fit, FitConfig, FitData};
+pub use fit::{fit, ConnectivityPath, Fit, FitConfig, FitData, Optimizer};
 pub use latent::{best_latent, LatentDensity, ProjectOptions, Projection};
 pub use likelihood::{Likelihood, LikelihoodConfig, LikelihoodEval};
 pub use model::{LatentModel, RigMap};
@@ -77,4 +77,14 @@ pub enum GplvmError {
     /// A value or gradient came out NaN or infinite.
     #[error("gplvm: non-finite {0}")]
     NonFinite(&'static str),
+    /// The objective or its gradient became NaN during a fit.
+    #[error("gplvm: the fit diverged at iteration {iteration} (evaluation {evaluations}): {cause}")]
+    Diverged {
+        /// Iterations completed.
+        iteration: usize,
+        /// Evaluations made.
+        evaluations: usize,
+        /// What failed.
+        cause: String,
+    },
 }

@@ -73,6 +73,13 @@ impl Objective {
         self.connectivity.as_mut()
     }
 
+    /// Replaces the connectivity prior (it must cover the same $N$ rows), returning the
+    /// old one.
+    pub fn set_connectivity(&mut self, prior: Option<ConnectivityPrior>) -> Option<ConnectivityPrior> {
+        assert!(prior.as_ref().is_none_or(|c| c.n() == self.layout.n), "the prior must cover N rows");
+        std::mem::replace(&mut self.connectivity, prior)
+    }
+
     /// The parts of the last [`Objective::evaluate`].
     pub fn last(&self) -> &EvalInfo {
         &self.last
@@ -118,9 +125,11 @@ impl Objective {
         })
     }
 
-    /// $E$ and its gradient for an optimiser: a failure (indefinite $K$ after every jitter
-    /// escalation, non-finite values) returns $+\infty$ with a zero gradient, which SCG
-    /// treats as a rejected step; [`Objective::last`] says why.
+    /// $E$ and its gradient for an optimiser: a domain failure (indefinite $K$ after every
+    /// jitter escalation, an eigensolver failure) returns $+\infty$ with a zero gradient,
+    /// which the optimisers treat as a rejected step; a non-finite computed value or
+    /// gradient ([`GplvmError::NonFinite`]) returns NaN, which stops them.
+    /// [`Objective::last`] says why.
     pub fn evaluate(&mut self, params: &[f64], grad: &mut [f64]) -> f64 {
         match self.try_evaluate(params, grad) {
             Ok(info) => {
@@ -128,7 +137,8 @@ impl Objective {
             }
             Err(e) => {
                 grad.fill(0.0);
-                self.last = EvalInfo { value: f64::INFINITY, error: Some(e), ..EvalInfo::default() };
+                let value = if matches!(e, GplvmError::NonFinite(_)) { f64::NAN } else { f64::INFINITY };
+                self.last = EvalInfo { value, error: Some(e), ..EvalInfo::default() };
             }
         }
         self.last.value
@@ -178,13 +188,23 @@ mod tests {
         }
     }
 
-    /// A failure is +∞ with a zero gradient and a recorded reason, not a panic.
+    /// A non-finite input is NaN (it stops the optimisers) with a zero gradient and a
+    /// recorded reason, not a panic; an indefinite K (no jitter allowed) is +∞.
     #[test]
-    fn failure_is_infinite() {
+    fn failure_is_nan_or_infinite() {
         let (mut obj, mut p) = objective(10, 3, 2, false);
         let n = p.len();
         p[n - 2] = f64::NAN;
         let mut g = vec![1.0; n];
+        assert!(obj.evaluate(&p, &mut g).is_nan());
+        assert!(g.iter().all(|v| *v == 0.0));
+        assert!(matches!(obj.last().error, Some(GplvmError::NonFinite(_))));
+        let (x, y) = random_problem(4, 2, 1, 3);
+        let config = LikelihoodConfig { jitter: crate::gplvm::Jitter::NONE, white_floor: 0.0, ..Default::default() };
+        let mut obj = Objective::new(Likelihood::new(&y, 2, 1, config).unwrap(), None, None).unwrap();
+        let same: Vec<f64> = x.iter().map(|_| 0.5).collect();
+        let p = obj.layout().pack(&same, &Hyper { rbf_variance: 1.0, lengthscale: 1.0, white_variance: 1e-300 });
+        let mut g = vec![1.0; p.len()];
         assert_eq!(obj.evaluate(&p, &mut g), f64::INFINITY);
         assert!(g.iter().all(|v| *v == 0.0));
         assert!(obj.last().error.is_some());
