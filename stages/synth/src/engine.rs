@@ -74,6 +74,14 @@ pub enum SynthError {
         /// The arrival radius.
         radius: f64,
     },
+    /// The particle's state became non-finite (an unstable constraint or force).
+    #[error("label `{label}`: the particle diverged while reaching {what}")]
+    Diverged {
+        /// Current label.
+        label: String,
+        /// What was being reached.
+        what: String,
+    },
     /// No bridge connects two labels, directly or through a third.
     #[error("no bridge from `{from}` to `{to}`, directly or through a third label")]
     NoBridge {
@@ -238,6 +246,10 @@ struct Stream {
     target: Vec<f64>,
 }
 
+/// Arrival tolerance on the radius: the critically damped constraint brings a particle
+/// from outside onto the rim, $\lVert x - p\rVert \to r$, only asymptotically.
+const ARRIVAL_SLACK: f64 = 1.1;
+
 /// The incoming stream of a blend reads the random force this many seconds later, so the
 /// two particles do not jitter in lockstep.
 const INCOMING_TIME_OFFSET: f64 = 1000.0;
@@ -361,6 +373,10 @@ impl<'l, 'a> Run<'l, 'a> {
     fn approach(&mut self, poly: &[Vec<f64>], r: f64, min_seconds: Option<f64>, what: &str) -> Result<(), SynthError> {
         let length: f64 = poly.windows(2).map(|w| dist(&w[0], &w[1])).sum();
         let step = self.step_length(length, min_seconds).max(1e-12);
+        // A disc smaller than one frame's travel of the path point makes the constraint
+        // stiff enough to throw the particle out (measured: it diverged at 0.05 against a
+        // 0.13 step); the radius, constraint and arrival alike, is at least that step.
+        let r = r.max(self.speed[self.cur.model] / self.set.fps);
         let frames = (length / step).ceil() as usize;
         let budget = self.frames_for(self.set.timeout_seconds);
         let end = poly.last().cloned().unwrap_or_else(|| self.cur.target.clone());
@@ -381,7 +397,10 @@ impl<'l, 'a> Run<'l, 'a> {
         }
         let limit = self.speed[self.cur.model];
         let mut spent = frames;
-        while !(dist(&self.cur.state.x, &end) <= r && norm(&self.cur.state.v) <= limit) {
+        while !(dist(&self.cur.state.x, &end) <= ARRIVAL_SLACK * r && norm(&self.cur.state.v) <= limit) {
+            if !self.cur.state.x.iter().chain(&self.cur.state.v).all(|v| v.is_finite()) {
+                return Err(SynthError::Diverged { label: self.label().into(), what: what.into() });
+            }
             if spent >= budget {
                 return Err(fail(self));
             }
@@ -424,9 +443,10 @@ impl<'l, 'a> Run<'l, 'a> {
         self.go(&link.x1, PathKind::Straight, r, None, &format!("the bridge to `{target}`"))?;
         let mut old = self.cur.clone();
         let mut new = Stream { model: to, state: State::at_rest(&link.x2), target: link.x2.clone() };
+        let (ra, rb) = (r.max(self.speed[old.model] / self.set.fps), r.max(self.speed[to] / self.set.fps));
         for f in 0..blend {
-            let a = self.step(&mut old, &link.x1, r, 0.0);
-            let b = self.step(&mut new, &link.x2, r, INCOMING_TIME_OFFSET);
+            let a = self.step(&mut old, &link.x1, ra, 0.0);
+            let b = self.step(&mut new, &link.x2, rb, INCOMING_TIME_OFFSET);
             let s = (f + 1) as f64 / blend as f64;
             let w = s * s * (3.0 - 2.0 * s);
             self.cur = new.clone();
@@ -656,8 +676,9 @@ mod tests {
             let out = run(lib, &script(cmds, 2), &Settings::default()).unwrap();
             let sw = out.iter().position(|f| f.model == 1).expect("switched");
             assert!(out[..sw].iter().all(|f| f.model == 0) && out[sw..].iter().all(|f| f.model == 1));
+            let arrival = ARRIVAL_SLACK * Settings::default().tight_radius.max(typical_speed(&lib.frames[0], 24.0).unwrap() / 24.0);
             assert!(
-                dist(&out[sw - 1].x, &[0.8, 1.27]) < 2.0 * Settings::default().tight_radius,
+                dist(&out[sw - 1].x, &[0.8, 1.27]) <= arrival,
                 "switches at the bridge: {:?}",
                 out[sw - 1].x
             );
@@ -694,12 +715,12 @@ mod tests {
             }
             last = lat;
         }
-        // Twice the speed, about half the latency.
+        // Twice the speed: the travel halves, the settling on arrival stays.
         let x1 = [(30.0f64 * 0.08).cos() * 1.5, (30.0f64 * 0.08).sin() * 1.5];
         let fast = with_lib(vec![link("a", "b", x1, x1)], |lib| {
             latency(&run(lib, &script(cmds.clone(), 0), &Settings { speed: Some(2.0), ..set }).unwrap(), 0, 1)
         });
-        assert!((fast as f64) < 0.65 * last as f64, "{fast} vs {last}");
+        assert!((fast as f64) < 0.8 * last as f64, "{fast} vs {last}");
     }
 
     /// The model switches only once the particle is within the tight radius of the bridge
@@ -713,7 +734,9 @@ mod tests {
             let out = with_lib(vec![link("a", "b", x1, x1)], |lib| run(lib, &script(cmds.clone(), seed), &set).unwrap());
             let sw = out.iter().position(|f| f.model == 1).unwrap();
             let before = &out[sw - 1];
-            assert!(dist(&before.x, &x1) <= set.tight_radius, "seed {seed}: switched {} away", dist(&before.x, &x1));
+            // The arrival radius: the tight radius, or one frame of travel if that is larger.
+            let r = ARRIVAL_SLACK * set.tight_radius.max(1.5 / set.fps);
+            assert!(dist(&before.x, &x1) <= r, "seed {seed}: switched {} away", dist(&before.x, &x1));
             let speed = dist(&out[sw - 1].x, &out[sw - 2].x) * set.fps;
             assert!(speed <= 1.5 * 1.2, "seed {seed}: arrived at {speed} latent units/s");
         }
