@@ -540,7 +540,9 @@ impl<'l, 'a> Run<'l, 'a> {
                 let normal = self.set.particle.omega0;
                 self.set.particle.omega0 = self.set.play_omega0;
                 for x in &xs[1..] {
-                    self.frame(x, self.set.play_radius);
+                    // As in every approach: the disc is at least this frame's travel.
+                    let r = self.set.play_radius.max(dist(x, &self.cur.target));
+                    self.frame(x, r);
                 }
                 self.set.particle.omega0 = normal;
             }
