@@ -30,9 +30,10 @@
 //! bridge it goes through the third label whose two bridges are closest; without one
 //! either, it is an error.
 //!
-//! PLAY: reach the segment's first latent (arrive within the tight radius), then follow its
-//! embedding one training frame per output frame, entering at the segment's own speed,
-//! with a stiffer constraint (`play_omega0`).
+//! PLAY: reach the segment's first latent (arrive within the tight radius), then play its
+//! embedding one training frame per output frame, the particle carried along it (a
+//! deviation: the paper's particle follows the path under the constraint, which diverges
+//! on fast training frames in a disc small enough to track them).
 
 use reprise_numerics::gplvm::LatentModel;
 
@@ -142,11 +143,6 @@ pub struct Settings {
     pub radius: f64,
     /// Radius while reaching a bridge or a segment start.
     pub tight_radius: f64,
-    /// Radius while playing a segment.
-    pub play_radius: f64,
-    /// $\omega_0$ while playing (stiffer than elsewhere, so the particle tracks the
-    /// embedding frame by frame; RK4 with 4 substeps at 24 fps is stable to ≈ 260 s⁻¹).
-    pub play_omega0: f64,
     /// $a$ of Eq. 11.
     pub density_force: f64,
     /// $v$ of Eq. 11 (relative density).
@@ -183,8 +179,6 @@ impl Default for Settings {
             particle: ParticleParams::default(),
             radius: 0.25,
             tight_radius: 0.05,
-            play_radius: 0.02,
-            play_omega0: 60.0,
             density_force: 2.0,
             density_threshold: 0.2,
             density_width: 0.05,
@@ -532,19 +526,19 @@ impl<'l, 'a> Run<'l, 'a> {
                 seq.sort_by_key(|f| f.frame);
                 let xs: Vec<Vec<f64>> = seq.iter().map(|f| f.x.clone()).collect();
                 self.go(&xs[0], PathKind::Straight, self.set.tight_radius, None, "the segment's first frame")?;
-                // Enter the segment at its own speed.
-                if let Some(x1) = xs.get(1) {
-                    let fps = self.set.fps;
-                    self.cur.state.v.iter_mut().zip(x1.iter().zip(&xs[0])).for_each(|(v, (b, a))| *v = (b - a) * fps);
+                // Play the embedding itself, one training frame per output frame: the
+                // particle is carried along it (position and velocity), not pulled by the
+                // constraint — a disc small enough to track the embedding is outrun by its
+                // fast frames, and the constraint keeps the tangential velocity each jump of
+                // ṗ gives it, until RK4 diverges (measured on dragon-face v2).
+                let fps = self.set.fps;
+                for w in xs.windows(2) {
+                    let v: Vec<f64> = w[1].iter().zip(&w[0]).map(|(b, a)| (b - a) * fps).collect();
+                    self.cur.state = State { x: w[1].clone(), v };
+                    self.cur.target = w[1].clone();
+                    let controls = self.controls(self.cur.model, &w[1]);
+                    self.push(controls);
                 }
-                let normal = self.set.particle.omega0;
-                self.set.particle.omega0 = self.set.play_omega0;
-                for x in &xs[1..] {
-                    // As in every approach: the disc is at least this frame's travel.
-                    let r = self.set.play_radius.max(dist(x, &self.cur.target));
-                    self.frame(x, r);
-                }
-                self.set.particle.omega0 = normal;
             }
         }
         Ok(())

@@ -21,9 +21,13 @@
 //! conservative Baumgarte law would otherwise still act on a fast particle.
 //!
 //! **Integration**: classical RK4 over one frame interval, in equal steps (`substeps`, or
-//! more so that $\omega_0 h \le 1/2$), with
+//! more so that $\omega_0 h \le 1/2$ and the particle moves at most $r/2$ relative to the
+//! path per step, up to [`MAX_SUBSTEPS`]), with
 //! $p(t)$ linear inside the interval (so $\ddot p = 0$) — never across frames, where
 //! $\dot p$ jumps.
+
+/// The most RK4 steps one frame takes (the travel rule's cap).
+pub const MAX_SUBSTEPS: usize = 256;
 
 /// Which multiplier formula to use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -126,7 +130,13 @@ pub fn step_frame(
     let Leg { t0, dt, from: p0, to: p1, radius: r } = leg;
     let q = state.x.len();
     let pdot: Vec<f64> = p0.iter().zip(p1).map(|(a, b)| (b - a) / dt).collect();
-    let steps = params.substeps.max(1).max((2.0 * params.omega0 * dt).ceil() as usize);
+    // Steps so that ω₀h ≤ 1/2 and the particle moves at most r/2 relative to the path in
+    // one step: the multiplier grows like ‖ẋ − ṗ‖²/r², and a path point that outruns a
+    // small disc (a PLAY through fast training frames) would otherwise make RK4 unstable.
+    let rel: f64 = state.v.iter().zip(&pdot).map(|(v, p)| (v - p) * (v - p)).sum::<f64>().sqrt();
+    let speed = pdot.iter().map(|p| p * p).sum::<f64>().sqrt() + rel;
+    let by_travel = if r > 0.0 { (2.0 * speed * dt / r).ceil().min(MAX_SUBSTEPS as f64) as usize } else { 1 };
+    let steps = params.substeps.max(1).max((2.0 * params.omega0 * dt).ceil() as usize).max(by_travel);
     let h = dt / steps as f64;
     let mut f = vec![0.0; q];
     let (mut g, mut rel) = (vec![0.0; q], vec![0.0; q]);
