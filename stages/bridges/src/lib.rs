@@ -7,11 +7,11 @@
 //! $\lVert W_2(p - g_2(x_2))\rVert$ (mesh length), and, through the rig, as the RMS vertex
 //! distance of the two poses. A pair keeps its candidates under a threshold. The default,
 //! `mesh-motion`, is absolute and comes from the data: a bridge's two poses may differ by
-//! at most `motion_multiple` (default 8) times the `motion_quantile` (default 0.9) of the
-//! training data's per-frame mesh motion — the RMS vertex distance between consecutive
-//! frames of a segment, over every label's segments. With the defaults, the 12-frame
-//! smoothstep blend, whose steepest frame carries 1.5/12 of the gap, adds at most one fast
-//! training frame step (the 90th percentile) per frame. Two labels with no pose that close
+//! at most `motion_multiple` (default 16) times the `motion_quantile` (default 0.5: the
+//! median) of the training data's per-frame mesh motion — the RMS vertex distance between
+//! consecutive frames of a segment, over every label's segments. With the defaults, the
+//! 12-frame smoothstep blend, whose steepest frame carries 1.5/12 of the gap, adds at most
+//! two median training frame steps per frame. Two labels with no pose that close
 //! get no direct bridge (the engine then routes through a third label, or fails). The alternatives: a quantile of
 //! the pair's own rig distances (every pair keeps at least one bridge), or an absolute rig
 //! or mesh distance.
@@ -96,12 +96,12 @@ pub struct Args {
     #[arg(long)]
     pub max_distance: Option<f64>,
     /// With `mesh-motion`: the largest mesh distance kept, in units of the training data's
-    /// per-frame mesh motion at `--motion-quantile` (8 = a 12-frame blend's steepest frame
-    /// carries one such step).
-    #[arg(long, default_value_t = 8.0)]
+    /// per-frame mesh motion at `--motion-quantile` (16 = a 12-frame blend's steepest frame
+    /// carries two such steps).
+    #[arg(long, default_value_t = 16.0)]
     pub motion_multiple: f64,
     /// With `mesh-motion`: which quantile of the per-frame mesh motion is the unit.
-    #[arg(long, default_value_t = 0.9)]
+    #[arg(long, default_value_t = 0.5)]
     pub motion_quantile: f64,
     /// Seed of the random starts.
     #[arg(long, default_value_t = 0)]
