@@ -144,3 +144,92 @@ fn concurrent_run_is_refused() {
     held.unlock().unwrap();
     p.reprise(&["run"]).ok();
 }
+
+/// The data loss: `outputs.clips = "labels.toml"` made ingest overwrite the
+/// labels file with Parquet. Refused before any stage (or its `--check`) runs, and the
+/// file is untouched; `allow_overwrite` is the explicit way out.
+#[test]
+fn output_over_a_user_file_is_refused() {
+    let p = small("");
+    let labels = p.read("labels.toml");
+    let pipeline = p.read("pipeline.toml").replace(
+        "outputs.clips = \"artifacts/small/clips.parquet\"",
+        "outputs.clips = \"labels.toml\"",
+    );
+    p.write("pipeline.toml", &pipeline);
+    let out = p.reprise(&["run"]).fails(exit::CONFIG);
+    assert!(
+        out.contains("stage `ingest`: output `clips` is `labels.toml`, an existing file that no stage of this pipeline wrote"),
+        "{out}"
+    );
+    assert!(out.contains("allow_overwrite = [\"clips\"]") && !out.contains("checking"), "{out}");
+    assert_eq!(p.read("labels.toml"), labels);
+    assert!(!p.path("artifacts/small/frames.parquet").exists(), "nothing ran");
+}
+
+/// An output set to the pipeline file replaced pipeline.toml with exit 0.
+#[test]
+fn output_over_the_pipeline_file_is_refused() {
+    let p = small("");
+    let pipeline = p.read("pipeline.toml").replace(
+        "outputs.clips = \"artifacts/small/clips.parquet\"",
+        "outputs.clips = \"./pipeline.toml\"",
+    );
+    p.write("pipeline.toml", &pipeline);
+    for command in [&["run"][..], &["status"]] {
+        let out = p.reprise(command).fails(exit::CONFIG);
+        assert!(out.contains("output `clips` is `pipeline.toml`, the pipeline file itself"), "{out}");
+    }
+    assert_eq!(p.read("pipeline.toml"), pipeline);
+}
+
+/// The pipeline's own outputs are rewritten freely: after a lost lock (a reprise
+/// artifact of the same stage) and with `allow_overwrite` for a foreign file.
+#[test]
+fn own_outputs_and_allowed_overwrites_still_run() {
+    let p = small("min_segment_length = 1");
+    p.reprise(&["run"]).ok();
+    std::fs::remove_file(p.path("artifacts/small/reprise.lock")).unwrap();
+    p.reprise(&["run"]).ok();
+    p.write("old-clips.parquet", "not mine to keep");
+    let pipeline = p.read("pipeline.toml").replace(
+        "outputs.clips = \"artifacts/small/clips.parquet\"",
+        "outputs.clips = \"old-clips.parquet\"\nallow_overwrite = [\"clips\"]",
+    );
+    p.write("pipeline.toml", &pipeline);
+    p.reprise(&["run"]).ok();
+    assert!(std::fs::read(p.path("old-clips.parquet")).unwrap().starts_with(b"PAR1"));
+}
+
+/// An output under a path whose parent is a file, or in a read-only directory.
+#[test]
+fn unwritable_output_places() {
+    let p = small("");
+    p.write("afile", "x");
+    let pipeline = p.read("pipeline.toml");
+    p.write("pipeline.toml", &pipeline.replace("artifacts/small/clips.parquet", "afile/clips.parquet"));
+    let out = p.reprise(&["run"]).fails(exit::CONFIG);
+    assert!(out.contains("output `clips` is `afile/clips.parquet`, but") && out.contains("afile` is a file, not a directory"), "{out}");
+
+    // Read-only: the environment's fault (exit 6), not the data's (3). Root ignores
+    // permissions, so this part only means something for other users.
+    std::fs::create_dir_all(p.path("ro")).unwrap();
+    std::process::Command::new("chmod").args(["555", p.path("ro").to_str().unwrap()]).status().unwrap();
+    let probe = std::fs::File::create(p.path("ro/probe"));
+    if probe.is_ok() {
+        eprintln!("SKIPPED the read-only part of unwritable_output_places: running as root");
+        return;
+    }
+    p.write("pipeline.toml", &pipeline.replace("artifacts/small/clips.parquet", "ro/clips.parquet"));
+    let out = p.reprise(&["run"]).fails(exit::ENVIRONMENT);
+    assert!(out.contains("ro/") && out.contains("ermission denied"), "{out}");
+}
+
+/// Labels that are empty or reserved are refused through the runner too.
+#[test]
+fn empty_label_name_is_refused() {
+    let p = small("");
+    p.write("labels.toml", "[[rule]]\npattern = \"*\"\nlabel = \"\"\n");
+    let out = p.reprise(&["run"]).fails(exit::INPUT);
+    assert!(out.contains("labels.toml: rule 1: label `` is empty"), "{out}");
+}

@@ -41,6 +41,9 @@ pub enum ArtifactError {
     /// The provenance metadata is present but unreadable.
     #[error("{path}: metadata key `{key}`: {message}")]
     Metadata { path: PathBuf, key: String, message: String },
+    /// The decoded content does not match the checksum written with it.
+    #[error("{path}: the file is corrupt: its data does not match the checksum written with it (a damaged disk, copy or download); rerun the stage that produced it")]
+    Corrupt { path: PathBuf },
     /// The data violates an invariant of its kind (stated in the message).
     #[error("{path}: {message}")]
     Invalid { path: PathBuf, message: String },

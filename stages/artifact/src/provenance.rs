@@ -21,6 +21,8 @@ pub const KEY_STAGE_VERSION: &str = "reprise.stage_version";
 pub const KEY_PARAMS: &str = "reprise.params";
 /// Metadata key: blake3 of the canonical parameter JSON.
 pub const KEY_PARAMS_HASH: &str = "reprise.params_hash";
+/// Metadata key: blake3 of the table's decoded content, checked on every read.
+pub const KEY_CONTENT: &str = "reprise.content_blake3";
 /// Metadata key: JSON object `name -> {path, blake3}` of the stage's input files.
 pub const KEY_INPUTS: &str = "reprise.inputs";
 
@@ -99,6 +101,33 @@ impl Provenance {
     }
 }
 
+/// Refuses an input artifact made from other files than the ones this stage was given:
+/// for every role that both `artifact`'s provenance and `given` (this stage's own
+/// provenance, inputs hashed) record, the content must be the same. E.g. `scales` made
+/// from the controls of a seed-8 rig, fed to a pca given the controls of seed 7. An
+/// artifact without provenance (a user's table) is not checked.
+pub fn check_made_from(artifact: &Path, given: &Provenance) -> Result<()> {
+    let meta = crate::table::metadata_of(artifact)?;
+    if !meta.contains_key(KEY_INPUTS) {
+        return Ok(());
+    }
+    let made = Provenance::from_metadata(artifact, &meta)?;
+    for (role, used) in &made.inputs {
+        let Some(now) = given.inputs.get(role) else { continue };
+        if now.blake3 != used.blake3 {
+            return Err(ArtifactError::Invalid {
+                path: artifact.into(),
+                message: format!(
+                    "was made by `{}` from {role} `{}`, but this stage was given {role} `{}`, whose content differs; \
+                     the inputs come from different runs — rerun `{}` on the same {role}",
+                    made.stage, used.path, now.path, made.stage
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Serialises a JSON value with object keys sorted, so equal parameters hash equally.
 pub fn canonical_json(value: &serde_json::Value) -> String {
     // serde_json's default `Map` is a BTreeMap: keys come out sorted at every level.
@@ -108,7 +137,7 @@ pub fn canonical_json(value: &serde_json::Value) -> String {
 /// blake3 of a file's bytes, hex.
 pub fn hash_file(path: &Path) -> Result<String> {
     let mut hasher = blake3::Hasher::new();
-    let file = std::fs::File::open(path).map_err(|e| ArtifactError::io(path, e))?;
+    let file = std::fs::File::open(crate::table::current_location(path)).map_err(|e| ArtifactError::io(path, e))?;
     hasher.update_reader(file).map_err(|e| ArtifactError::io(path, e))?;
     Ok(hasher.finalize().to_hex().to_string())
 }

@@ -15,7 +15,7 @@ use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
 
 use crate::error::{ArtifactError, Result};
-use crate::provenance::{Provenance, KEY_KIND, KEY_SCHEMA_VERSION};
+use crate::provenance::{Provenance, KEY_CONTENT, KEY_KIND, KEY_SCHEMA_VERSION};
 
 /// An artifact kind: its name (stored under `reprise.schema`) and schema version.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -88,6 +88,9 @@ pub fn write(
         KeyValue::new(KEY_KIND.into(), kind.name.to_string()),
         KeyValue::new(KEY_SCHEMA_VERSION.into(), kind.version.to_string()),
     ];
+    if let Some(hash) = content_hash(&batch) {
+        kv.push(KeyValue::new(KEY_CONTENT.into(), hash));
+    }
     kv.extend(provenance.to_metadata().into_iter().chain(extra.iter().cloned()).map(|(k, v)| KeyValue::new(k, v)));
     let props = WriterProperties::builder()
         .set_compression(Compression::ZSTD(ZstdLevel::try_new(1).expect("level 1 is valid")))
@@ -103,22 +106,132 @@ pub fn write(
 }
 
 /// Runs `fill` on a temporary file in `path`'s directory, then renames it to `path`.
-/// On any error the temporary file is removed and `path` is untouched.
+/// On any error the temporary file is removed and `path` is untouched. After
+/// [`defer_commits`] the rename waits for [`commit_pending`].
 pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut File) -> Result<()>) -> Result<()> {
     let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(|e| ArtifactError::io(dir, e))?;
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let tmp = temp_path(path);
     let result = (|| {
         let mut file = File::create(&tmp).map_err(|e| ArtifactError::io(&tmp, e))?;
         fill(&mut file)?;
         file.sync_all().map_err(|e| ArtifactError::io(&tmp, e))?;
-        std::fs::rename(&tmp, path).map_err(|e| ArtifactError::io(path, e))
+        let mut pending = PENDING.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        match pending.as_mut() {
+            Some(list) => {
+                list.retain(|(_, p)| p != path);
+                list.push((tmp.clone(), path.to_path_buf()));
+                Ok(())
+            }
+            None => std::fs::rename(&tmp, path).map_err(|e| ArtifactError::io(path, e)),
+        }
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// The temporary name [`write_atomic`] uses for `path` in this process:
+/// `.<name>.<pid>.tmp` beside it (the runner removes such files left by a dead stage).
+pub fn temp_path(path: &Path) -> PathBuf {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    dir.join(format!(".{name}.{}.tmp", std::process::id()))
+}
+
+/// Files written but not yet renamed into place: `(temporary, final)`. `None` until
+/// [`defer_commits`].
+static PENDING: std::sync::Mutex<Option<Vec<(PathBuf, PathBuf)>>> = std::sync::Mutex::new(None);
+
+/// From now on, [`write_atomic`] leaves each file under its temporary name until
+/// [`commit_pending`], so a stage's outputs are replaced together or not at all. Reads
+/// of a pending path in this process ([`Table::read_any`], [`crate::provenance::hash_file`])
+/// see the pending content.
+pub fn defer_commits() {
+    let mut pending = PENDING.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    pending.get_or_insert_with(Vec::new);
+}
+
+/// Renames every pending file into place, in the order written.
+pub fn commit_pending() -> Result<()> {
+    let list = PENDING.lock().unwrap_or_else(std::sync::PoisonError::into_inner).as_mut().map(std::mem::take);
+    let list = list.unwrap_or_default();
+    for (i, (tmp, path)) in list.iter().enumerate() {
+        if let Err(e) = std::fs::rename(tmp, path) {
+            for (rest, _) in &list[i..] {
+                let _ = std::fs::remove_file(rest);
+            }
+            return Err(ArtifactError::io(path, e));
+        }
+    }
+    Ok(())
+}
+
+/// Removes every pending file (the stage failed: its old outputs stay as they were).
+pub fn discard_pending() {
+    let list = PENDING.lock().unwrap_or_else(std::sync::PoisonError::into_inner).as_mut().map(std::mem::take);
+    for (tmp, _) in list.unwrap_or_default() {
+        let _ = std::fs::remove_file(tmp);
+    }
+}
+
+/// Where the current content of `path` is: its pending temporary file, if any.
+pub(crate) fn current_location(path: &Path) -> PathBuf {
+    let pending = PENDING.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    pending
+        .as_ref()
+        .and_then(|list| list.iter().find(|(_, p)| p == path).map(|(tmp, _)| tmp.clone()))
+        .unwrap_or_else(|| path.to_path_buf())
+}
+
+/// blake3 of a table's decoded content (column names, types, nulls and values), or
+/// `None` if it holds a column type reprise does not write. Stored under
+/// [`KEY_CONTENT`] and checked on every read: Parquet pages carry no checksum as
+/// parquet-rs writes them, so a flipped bit in a data page would otherwise decode into
+/// silently different numbers.
+fn content_hash(batch: &RecordBatch) -> Option<String> {
+    let mut h = blake3::Hasher::new();
+    for (field, column) in batch.schema().fields().iter().zip(batch.columns()) {
+        h.update(&(field.name().len() as u64).to_le_bytes());
+        h.update(field.name().as_bytes());
+        h.update(field.data_type().to_string().as_bytes());
+        let any = column.as_any();
+        let (f64s, i64s) = (any.downcast_ref::<Float64Array>(), any.downcast_ref::<Int64Array>());
+        let (bools, strs) = (any.downcast_ref::<BooleanArray>(), any.downcast_ref::<StringArray>());
+        if f64s.is_none() && i64s.is_none() && bools.is_none() && strs.is_none() {
+            return None;
+        }
+        let mut buf = Vec::with_capacity(column.len() * 9);
+        for row in 0..column.len() {
+            if column.is_null(row) {
+                buf.push(0);
+                continue;
+            }
+            buf.push(1);
+            if let Some(a) = f64s {
+                buf.extend_from_slice(&a.value(row).to_bits().to_le_bytes());
+            } else if let Some(a) = i64s {
+                buf.extend_from_slice(&a.value(row).to_le_bytes());
+            } else if let Some(a) = bools {
+                buf.push(u8::from(a.value(row)));
+            } else if let Some(a) = strs {
+                buf.extend_from_slice(&(a.value(row).len() as u64).to_le_bytes());
+                buf.extend_from_slice(a.value(row).as_bytes());
+            }
+        }
+        h.update(&buf);
+    }
+    Some(h.finalize().to_hex().to_string())
+}
+
+/// The key-value metadata of a Parquet file, read from its footer only.
+pub fn metadata_of(path: &Path) -> Result<BTreeMap<String, String>> {
+    use parquet::file::reader::{FileReader, SerializedFileReader};
+    let file = File::open(current_location(path)).map_err(|e| ArtifactError::io(path, e))?;
+    let reader = SerializedFileReader::new(file).map_err(|e| ArtifactError::parquet(path, e))?;
+    let kv = reader.metadata().file_metadata().key_value_metadata().cloned().unwrap_or_default();
+    Ok(kv.into_iter().map(|e| (e.key, e.value.unwrap_or_default())).collect())
 }
 
 /// A Parquet artifact read into memory, with its checked columns.
@@ -156,9 +269,9 @@ impl Table {
 
     /// Reads any Parquet file (no kind check), e.g. a user's curve table.
     pub fn read_any(path: &Path) -> Result<Self> {
-        let file = File::open(path).map_err(|e| ArtifactError::io(path, e))?;
+        let file = File::open(current_location(path)).map_err(|e| ArtifactError::io(path, e))?;
         let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| ArtifactError::parquet(path, e))?;
-        let metadata = builder
+        let metadata: BTreeMap<String, String> = builder
             .metadata()
             .file_metadata()
             .key_value_metadata()
@@ -169,6 +282,11 @@ impl Table {
         let batches =
             reader.collect::<std::result::Result<Vec<_>, _>>().map_err(|e| ArtifactError::parquet(path, e))?;
         let batch = arrow::compute::concat_batches(&schema, &batches).map_err(|e| ArtifactError::parquet(path, e))?;
+        if let Some(expected) = metadata.get(KEY_CONTENT) {
+            if content_hash(&batch).as_ref() != Some(expected) {
+                return Err(ArtifactError::Corrupt { path: path.into() });
+            }
+        }
         let mut seen = std::collections::HashSet::new();
         for field in schema.fields() {
             if !seen.insert(field.name()) {

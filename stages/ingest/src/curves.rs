@@ -244,6 +244,37 @@ pub(crate) fn source_rate(times: &[f64], fallback: f64) -> f64 {
     rates[rates.len() / 2]
 }
 
+/// Refuses, before anything is allocated, a resampling to `fps` that would make more than
+/// `max` frames, naming the clip and the row (and column) of its latest time.
+pub(crate) fn check_budget(
+    table: &RawTable,
+    base: &TimeBase<'_>,
+    curves: &Curves,
+    fps: f64,
+    max: usize,
+) -> StageResult<()> {
+    let frames = |c: &ClipCurves| (c.times[c.times.len() - 1] - c.times[0]) * fps + 1.0;
+    let total: f64 = curves.clips.iter().map(frames).sum();
+    if total <= max as f64 {
+        return Ok(());
+    }
+    let Some(clip) = curves.clips.iter().max_by(|a, b| frames(a).total_cmp(&frames(b))) else { return Ok(()) };
+    let (clips, times) = row_keys(table, base)?;
+    let row = (0..times.len()).filter(|&r| clips[r] == clip.name).max_by(|&a, &b| times[a].total_cmp(&times[b]));
+    let message = format!(
+        "clip `{}` runs from {} s to {} s, which at {fps} fps makes {:.0} frames ({total:.0} in all clips), more than \
+         the limit --max-frames {max}; is this time a typo? (raise --max-frames if it is not)",
+        clip.name,
+        clip.times[0],
+        clip.times[clip.times.len() - 1],
+        frames(clip)
+    );
+    Err(match row {
+        Some(row) => table.error(row, time_column(table, base), &message),
+        None => StageError::Input(format!("{}: {message}", table.path().display())),
+    })
+}
+
 /// Resamples every clip onto `t_k = t_0 + k / fps`, `k = 0 … ⌊(t_end − t_0)·fps⌋`, by
 /// linear interpolation between the bracketing samples (exact copies where the source
 /// already lies on the grid), and restarts time at 0 for each clip.

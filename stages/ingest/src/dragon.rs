@@ -7,6 +7,9 @@ use reprise_artifact::controls::{Control, Controls, RigRef};
 use reprise_artifact::frames::Frames;
 use reprise_dragonface::{generate_corpus_scaled, DragonRig};
 
+/// The corpus's frame rate.
+pub(crate) const FPS: f64 = reprise_dragonface::FPS;
+
 /// Frames, controls and clips of the dragon-face corpus for `seed`, its frame budget
 /// scaled by `scale`.
 pub(crate) fn generate(seed: u64, scale: f64) -> (Frames, Controls, Vec<Clip>) {

@@ -68,9 +68,15 @@ pub struct Args {
     /// Curve table layout.
     #[arg(long, value_enum, default_value_t = Layout::Auto)]
     pub layout: Layout,
-    /// Pipeline frame rate: every clip is resampled to it (frames per second).
+    /// Pipeline frame rate: every clip is resampled to it (frames per second, at most
+    /// 1000). `--generate dragon-face` makes a 24 fps corpus and accepts only 24.
     #[arg(long, default_value_t = 24.0)]
     pub fps: f64,
+    /// Limit: the most frames ingest makes (after resampling, all clips together). A
+    /// time or frame-number typo (frame 1e9 for 100) would otherwise try to allocate it.
+    #[arg(long, default_value_t = 1_000_000)]
+    #[serde(skip)]
+    pub max_frames: usize,
     /// Rate of a table's `frame` column when it has no `time` column (default: --fps).
     #[arg(long)]
     pub source_fps: Option<f64>,
@@ -146,15 +152,29 @@ impl Args {
             return Err(StageError::Config(format!("--corpus-scale must be in [0.1, 100], got {}", self.corpus_scale)));
         }
         for (flag, rate) in [("--fps", Some(self.fps)), ("--source-fps", self.source_fps)] {
-            if let Some(r) = rate.filter(|r| !(r.is_finite() && *r > 0.0)) {
+            if let Some(r) = rate.filter(|r| !(r.is_finite() && *r > 0.0 && *r <= MAX_FPS)) {
                 return Err(StageError::Config(format!(
-                    "{flag} must be a positive number of frames per second, got {r}"
+                    "{flag} must be a positive number of frames per second, at most {MAX_FPS}, got {r}"
                 )));
             }
+        }
+        if self.generate.is_some() && self.fps != dragon::FPS {
+            return Err(StageError::Config(format!(
+                "--generate dragon-face makes a {} fps corpus; --fps {} cannot be honoured (give --fps {} or leave it out)",
+                dragon::FPS,
+                self.fps,
+                dragon::FPS
+            )));
+        }
+        if self.max_frames == 0 {
+            return Err(StageError::Config("--max-frames must be at least 1".into()));
         }
         Ok(())
     }
 }
+
+/// The highest `--fps` / `--source-fps` accepted.
+pub const MAX_FPS: f64 = 1000.0;
 
 /// Where the clips come from.
 enum Source<'a> {
@@ -226,6 +246,7 @@ fn from_table(args: &Args, path: &std::path::Path) -> StageResult<(Frames, Contr
     if table.rows() == 0 {
         return Err(StageError::Input(format!("{}: the table has no rows", path.display())));
     }
+    curves::check_budget(&table, &base, &curves, args.fps, args.max_frames)?;
     let frames = curves::resample(&curves, args.fps);
     let clips = curves
         .clips

@@ -34,6 +34,16 @@ impl RawTable {
         let io = |e: &dyn std::fmt::Display| StageError::Input(format!("{}: {e}", path.display()));
         let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_path(path).map_err(|e| io(&e))?;
         let headers: Vec<String> = reader.headers().map_err(|e| io(&e))?.iter().map(String::from).collect();
+        if let [only] = headers.as_slice() {
+            if let Some(sep) = [';', '\t', '|'].into_iter().find(|c| only.contains(*c)) {
+                let shown = if sep == '\t' { "a tab".to_string() } else { format!("`{sep}`") };
+                return Err(StageError::Input(format!(
+                    "{}: line 1: the columns are separated by {shown}, not by commas; reprise reads comma-separated \
+                     CSV with `.` as the decimal point (re-export it, or convert it to Parquet)",
+                    path.display()
+                )));
+            }
+        }
         for (i, h) in headers.iter().enumerate() {
             if h.is_empty() {
                 return Err(StageError::Input(format!(
@@ -54,7 +64,15 @@ impl RawTable {
         let mut records = Vec::new();
         let mut lines = Vec::new();
         for record in reader.records() {
-            let record = record.map_err(|e| io(&e))?;
+            let record = record.map_err(|e| match e.kind() {
+                csv::ErrorKind::UnequalLengths { pos, expected_len, len } => StageError::Input(format!(
+                    "{}: line {}: {len} fields where the header has {expected_len}; a decimal comma (`0,5` for \
+                     `0.5`) or an unquoted comma inside a name splits a field in two",
+                    path.display(),
+                    pos.as_ref().map_or(0, csv::Position::line)
+                )),
+                _ => io(&e),
+            })?;
             lines.push(record.position().map_or(0, csv::Position::line));
             records.push(record);
         }
@@ -119,6 +137,11 @@ impl RawTable {
                             Ok(v) if v.is_finite() => Ok(v),
                             Ok(v) => Err(self.error(row, column, &format!("value {v} is not finite"))),
                             Err(_) if cell.is_empty() => Err(self.error(row, column, "missing value")),
+                            Err(_) if cell.replacen(',', ".", 1).parse::<f64>().is_ok() => Err(self.error(
+                                row,
+                                column,
+                                &format!("`{cell}` has a decimal comma; reprise reads numbers with a decimal point (`.`)"),
+                            )),
                             Err(_) => Err(self.error(row, column, &format!("`{cell}` is not a number"))),
                         }
                     })

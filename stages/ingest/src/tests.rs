@@ -20,6 +20,7 @@ fn args(dir: &Path, name: &str, text: &str) -> Args {
         corpus_scale: 1.0,
         layout: Layout::Auto,
         fps: 24.0,
+        max_frames: 1_000_000,
         source_fps: None,
         clip: None,
         time_column: None,
@@ -184,6 +185,40 @@ bad_input! {
     long_duplicate: "ld.csv", "frame,control,value\n0,a,1\n0,a,2\n", "line 3", "repeats line 2";
     reserved_column: "r.csv", "frame,label\n0,1\n", "`label` is reserved";
     not_a_table: "t.txt", "frame,jaw\n0,1\n", "expected a .csv or .parquet";
+    frame_number_typo: "typo.csv", "clip,frame,jaw\na,0,1\na,1,1\na,1000000000,2\n", "line 4", "column `frame`", "clip `a` runs from 0 s to 41666666.6", "--max-frames 1000000", "typo";
+    semicolons: "semi.csv", "frame;jaw;brow\n0;1;2\n", "line 1", "separated by `;`, not by commas";
+    tabs: "tab.csv", "frame\tjaw\n0\t1\n", "separated by a tab";
+    decimal_commas: "dc.csv", "frame,jaw\n0,0,5\n", "line 2", "3 fields where the header has 2", "decimal comma";
+    quoted_decimal_comma: "qdc.csv", "frame,jaw\n0,\"0,5\"\n", "line 2", "column `jaw`", "`0,5` has a decimal comma";
+}
+
+/// A time column at an absurd --fps is refused by the frame limit before allocating.
+#[test]
+fn huge_fps_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut a = args(dir.path(), "c.csv", "clip,time,jaw\na,0,1\na,10,2\n");
+    a.fps = 1e9;
+    assert_eq!(run(&a).unwrap_err().code(), reprise_stagekit::exit::CONFIG, "above the fps ceiling");
+    a.fps = 1000.0;
+    a.max_frames = 5000;
+    let err = run(&a).unwrap_err().to_string();
+    assert!(err.contains("line 3, column `time`") && err.contains("10001 frames"), "{err}");
+    a.max_frames = 20_000;
+    assert_eq!(run(&a).unwrap().unwrap().frames, 10_001);
+}
+
+/// `--generate` makes 24 fps; another --fps is refused, not silently ignored.
+#[test]
+fn generate_refuses_another_fps() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut a = args(dir.path(), "unused.csv", "");
+    a.curves = None;
+    a.generate = Some(crate::Generator::DragonFace);
+    a.fps = 1e6;
+    let err = run(&a).unwrap_err();
+    assert_eq!(err.code(), reprise_stagekit::exit::CONFIG);
+    a.fps = 30.0;
+    assert!(run(&a).unwrap_err().to_string().contains("makes a 24 fps corpus; --fps 30 cannot be honoured"));
 }
 
 #[test]

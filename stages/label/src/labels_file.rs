@@ -18,7 +18,9 @@
 //! reason = "camera cheat"
 //! ```
 //! CSV has the columns `clip,start,end,label` (one range per line; empty start and end
-//! mean the whole clip) and optionally `reason`; the label `!exclude` excludes.
+//! mean the whole clip) and optionally `reason`. In both forms the label `!exclude`
+//! excludes (a TOML rule or range with it is an exclusion); an empty label, one with
+//! spaces around it, or any other starting with `!` is refused.
 
 use std::path::Path;
 
@@ -162,16 +164,18 @@ impl LabelsFile {
         for (i, r) in file.rule.into_iter().enumerate() {
             let origin = format!("rule {}", i + 1);
             let target = Target::Pattern(glob(path, &origin, &r.pattern)?);
-            entries.push(Entry { origin, target, range: None, label: Some(r.label), reason: String::new() });
+            let label = label_name(path, &origin, r.label)?;
+            entries.push(Entry { origin, target, range: None, label, reason: String::new() });
         }
         for (i, r) in file.range.into_iter().enumerate() {
             let origin = format!("range {}", i + 1);
             let range = range(path, &origin, Some(r.start), Some(r.end))?;
+            let label = label_name(path, &origin, r.label)?;
             entries.push(Entry {
                 origin,
                 target: Target::Clip(r.clip),
                 range,
-                label: Some(r.label),
+                label,
                 reason: String::new(),
             });
         }
@@ -225,15 +229,35 @@ impl LabelsFile {
             if cell(clip).is_empty() || name.is_empty() {
                 return Err(err(format!("{origin}: clip and label must not be empty")));
             }
-            let is_exclude = name == "!exclude";
+            let label = label_name(path, &origin, name)?;
             entries.push(Entry {
                 origin,
                 target: Target::Clip(cell(clip)),
                 range,
-                label: (!is_exclude).then_some(name),
+                label,
                 reason: reason.map(cell).unwrap_or_default(),
             });
         }
         Ok(entries)
     }
 }
+
+/// The label `!exclude` (in TOML and CSV alike) excludes: `None`. A label must be
+/// non-empty, without surrounding spaces, and may not start with `!` otherwise (reserved).
+fn label_name(path: &Path, origin: &str, name: String) -> StageResult<Option<String>> {
+    let err = |why: &str| Err(StageError::Input(format!("{}: {origin}: label `{name}` {why}", path.display())));
+    if name == EXCLUDE {
+        Ok(None)
+    } else if name.trim().is_empty() {
+        err("is empty; give a name, or `!exclude` to exclude the frames")
+    } else if name.trim() != name {
+        err("has spaces around it")
+    } else if name.starts_with('!') {
+        err("starts with `!`, which is reserved: `!exclude` is the only such label")
+    } else {
+        Ok(Some(name))
+    }
+}
+
+/// The label that excludes frames instead of labeling them.
+const EXCLUDE: &str = "!exclude";

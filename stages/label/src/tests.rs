@@ -143,6 +143,25 @@ bad_labels! {
     unknown_key: "toml", "[[rule]]\npattern = \"*\"\nlable = \"x\"\n", "unknown field `lable`";
     reversed_range: "toml", "[[range]]\nclip = \"walk_a\"\nstart = 5\nend = 2\nlabel = \"walk\"\n", "range 1", "5..=2";
     unknown_csv_column: "csv", "clip,begin,end,label\n", "unknown column `begin`";
+    empty_label: "toml", "[[rule]]\npattern = \"*\"\nlabel = \"\"\n", "rule 1", "label `` is empty";
+    blank_label_csv: "csv", "clip,start,end,label\nwalk_a,0,1,\"  \"\n", "line 2";
+    spaced_label: "toml", "[[range]]\nclip = \"walk_a\"\nstart = 0\nend = 1\nlabel = \" walk\"\n", "range 1", "spaces around it";
+    reserved_label: "csv", "clip,start,end,label\nwalk_a,0,1,!skip\n", "line 2", "`!skip` starts with `!`";
+}
+
+/// `!exclude` means the same in TOML as in CSV.
+#[test]
+fn exclude_label_in_toml_excludes_like_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = args(dir.path(), "clip,start,end,label\nwalk_a,,,walk\nrun_a,0,4,run\nwalk_a,0,1,!exclude\n", "csv");
+    let from_csv = run(&csv).unwrap().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let toml = "[[rule]]\npattern = \"walk_a\"\nlabel = \"walk\"\n[[range]]\nclip = \"run_a\"\nstart = 0\nend = 4\nlabel = \"run\"\n\
+                [[range]]\nclip = \"walk_a\"\nstart = 0\nend = 1\nlabel = \"!exclude\"\n";
+    let from_toml = run(&args(dir.path(), toml, "toml")).unwrap().unwrap();
+    assert_eq!(from_toml.labels.iter().map(|l| l.frames).collect::<Vec<_>>(), vec![8, 5]);
+    assert_eq!(from_toml.excluded_frames, from_csv.excluded_frames);
+    assert!(from_toml.labels.iter().all(|l| l.label != "!exclude"));
 }
 
 #[test]

@@ -219,6 +219,7 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         .with_input("labeled_frames", &args.labeled_frames)?
         .with_input("scales", &args.scales)?
         .with_input("controls", &args.controls)?;
+    reprise_artifact::provenance::check_made_from(&args.scales, &provenance)?;
     let labeled = LabeledFrames::read(&args.labeled_frames)?;
     let scales = scales::read(&args.scales)?;
     let rig = if args.mesh_errors {

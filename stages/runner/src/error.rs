@@ -15,6 +15,27 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
+    /// The runner received a signal and stopped (its running stage first).
+    #[error("interrupted by {name}{}; nothing after the last completed stage was recorded", stage.as_ref().map(|s| format!(" while stage `{s}` ran (it was stopped)")).unwrap_or_default())]
+    Interrupted { stage: Option<String>, signal: i32, name: &'static str },
+
+    /// An output names a file no stage may write (the pipeline file, the lock file, one of
+    /// the stage's own inputs); `what` says which.
+    #[error("{file}: stage `{stage}`: output `{output}` is `{path}`, {what}; choose another path")]
+    OutputForbidden { file: String, stage: String, output: String, path: String, what: &'static str },
+
+    /// An output names an existing file that this pipeline did not write.
+    #[error(
+        "{file}: stage `{stage}`: output `{output}` is `{path}`, an existing file that no stage of this pipeline wrote \
+         (it is not recorded in `{lock}`); refusing to overwrite it: choose another path, move the file away, \
+         or add `allow_overwrite = [\"{output}\"]` to `[stage.{stage}]`"
+    )]
+    OutputNotOurs { file: String, stage: String, output: String, path: String, lock: String },
+
+    /// An output cannot be a file: a directory is in the way, or a parent is a file.
+    #[error("stage `{stage}`: output `{output}` is `{path}`, but {why}")]
+    OutputUnwritable { stage: String, output: String, path: String, why: String },
+
     /// Another `reprise run` holds this pipeline's run lock.
     #[error("another `reprise run` is running this pipeline (it holds `{}`); wait for it to finish", path.display())]
     AlreadyRunning { path: std::path::PathBuf },
@@ -147,17 +168,24 @@ impl Error {
             | Self::InspectColumn { .. }
             | Self::NestedParam { .. }
             | Self::NoStages { .. }
+            | Self::OutputForbidden { .. }
+            | Self::OutputNotOurs { .. }
+            | Self::OutputUnwritable { .. }
             | Self::PipelineRead { .. }
             | Self::PipelineSyntax { .. }
             | Self::UnknownAfter { .. }
             | Self::UnknownKey { .. }
             | Self::UnknownStage { .. } => exit::CONFIG,
+            Self::Io { source, .. } | Self::LockWrite { source, .. } if exit::is_environment(source) => {
+                exit::ENVIRONMENT
+            }
             Self::Io { .. } | Self::InspectRows { .. } | Self::NotParquet { .. } | Self::SourceMissing { .. } => {
                 exit::INPUT
             }
             Self::AlreadyRunning { .. } | Self::LockWrite { .. } | Self::OutputNotWritten { .. } => exit::FAILURE,
             Self::Spawn { .. } | Self::StageBinaryMissing { .. } | Self::StageKilled { .. } => exit::STAGE_CRASHED,
             Self::CheckFailed { code, .. } | Self::StageFailed { code, .. } => *code,
+            Self::Interrupted { signal, .. } => exit::INTERRUPTED_BASE + signal,
         }
     }
 }

@@ -6,12 +6,20 @@
 //! `-` is passed as `--name=value` so the stage's parser cannot take it for a flag. The
 //! child inherits stdout and stderr (its progress bars and messages show directly) and
 //! gets an empty stdin.
+//!
+//! Lifetime: the child runs in its own process group and is told the runner's pid
+//! (`REPRISE_RUNNER_PID`), so it dies with the runner (see `reprise_stagekit::lifetime`).
+//! When the runner receives SIGINT, SIGTERM or SIGHUP while a stage runs, it sends SIGTERM
+//! to the stage's whole process group, then SIGKILL after [`GRACE`], and reports
+//! [`Outcome::Interrupted`].
 
 use std::ffi::OsString;
 use std::io;
 use std::path::Path;
-use std::process::{Command, ExitStatus, Stdio};
-use std::time::Duration;
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use crate::error::{Error, Result};
 use crate::pipeline::Stage;
@@ -25,6 +33,46 @@ pub enum Outcome {
     Failed(i32),
     /// Killed by this signal.
     Killed(i32),
+    /// The runner received this signal and stopped the stage.
+    Interrupted(i32),
+}
+
+/// How long a stage has to exit after SIGTERM before its group gets SIGKILL.
+pub const GRACE: Duration = Duration::from_secs(2);
+
+/// Signals that stop a run: recorded by a signal handler, polled while a stage runs.
+#[derive(Debug, Clone, Default)]
+pub struct Interrupt {
+    signal: Arc<AtomicUsize>,
+}
+
+impl Interrupt {
+    /// Records SIGINT, SIGTERM and SIGHUP from now on (unix; the handler only stores the
+    /// signal number). The handlers are installed once per process and stay; each call
+    /// starts from "nothing received".
+    #[must_use]
+    pub fn watch() -> Self {
+        static PROCESS: std::sync::OnceLock<Interrupt> = std::sync::OnceLock::new();
+        let this = PROCESS.get_or_init(|| {
+            let this = Self::default();
+            #[cfg(unix)]
+            for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM, signal_hook::consts::SIGHUP] {
+                let _ = signal_hook::flag::register_usize(signal, this.signal.clone(), signal.unsigned_abs() as usize);
+            }
+            this
+        });
+        this.signal.store(0, Ordering::SeqCst);
+        this.clone()
+    }
+
+    /// The signal received, if any.
+    #[must_use]
+    pub fn received(&self) -> Option<i32> {
+        match self.signal.load(Ordering::SeqCst) {
+            0 => None,
+            s => i32::try_from(s).ok(),
+        }
+    }
 }
 
 /// The stage's command-line arguments (without the program and without `--check`).
@@ -54,33 +102,47 @@ pub fn stage_args(stage: &Stage) -> Vec<OsString> {
 pub const STATS_ENV: &str = "REPRISE_STATS_FILE";
 
 /// Runs the stage binary `bin` in `dir` and waits for it; `check` appends `--check`;
-/// `stats` asks the stage to write its statistics (peak memory) there.
-pub fn invoke(stage: &Stage, bin: &Path, dir: &Path, check: bool, stats: Option<&Path>) -> Result<Outcome> {
+/// `stats` asks the stage to write its statistics (peak memory) there. A signal recorded
+/// by `interrupt` stops the stage (see the module docs).
+pub fn invoke(
+    stage: &Stage,
+    bin: &Path,
+    dir: &Path,
+    check: bool,
+    stats: Option<&Path>,
+    interrupt: &Interrupt,
+) -> Result<Outcome> {
     let mut command = Command::new(bin);
     command.args(stage_args(stage)).current_dir(dir).stdin(Stdio::null());
+    command.env(reprise_stagekit::lifetime::RUNNER_PID_ENV, std::process::id().to_string());
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::CommandExt;
+        command.process_group(0);
+    }
     if let Some(path) = stats {
         command.env(STATS_ENV, path);
     }
     if check {
         command.arg("--check");
     }
-    let status = spawn_and_wait(&mut command).map_err(|source| Error::Spawn {
-        stage: stage.name.clone(),
-        bin: bin.to_path_buf(),
-        source,
-    })?;
-    Ok(outcome(status))
+    let spawn_error = |source| Error::Spawn { stage: stage.name.clone(), bin: bin.to_path_buf(), source };
+    let mut child = spawn(&mut command).map_err(spawn_error)?;
+    match wait(&mut child, interrupt).map_err(spawn_error)? {
+        Ok(status) => Ok(outcome(status)),
+        Err(signal) => Ok(Outcome::Interrupted(signal)),
+    }
 }
 
 /// Spawns, retrying briefly on `ETXTBSY`: on Linux, executing a file that another thread
 /// of this process has just written can fail while a concurrently forked child still holds
 /// the write descriptor.
-fn spawn_and_wait(command: &mut Command) -> io::Result<ExitStatus> {
+fn spawn(command: &mut Command) -> io::Result<Child> {
     const ETXTBSY: i32 = 26;
     let mut attempts = 0;
     loop {
         match command.spawn() {
-            Ok(mut child) => return child.wait(),
+            Ok(child) => return Ok(child),
             Err(e) if cfg!(target_os = "linux") && e.raw_os_error() == Some(ETXTBSY) && attempts < 50 => {
                 attempts += 1;
                 std::thread::sleep(Duration::from_millis(10));
@@ -88,6 +150,45 @@ fn spawn_and_wait(command: &mut Command) -> io::Result<ExitStatus> {
             Err(e) => return Err(e),
         }
     }
+}
+
+/// Waits for the child, polling `interrupt`; on a signal, stops the child's process group
+/// and returns `Err(signal)` once it is gone.
+fn wait(child: &mut Child, interrupt: &Interrupt) -> io::Result<Result<ExitStatus, i32>> {
+    loop {
+        if let Some(status) = child.try_wait()? {
+            return Ok(Ok(status));
+        }
+        if let Some(signal) = interrupt.received() {
+            stop_group(child)?;
+            return Ok(Err(signal));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// SIGTERM to the child's process group, SIGKILL after [`GRACE`], then reaps the child.
+fn stop_group(child: &mut Child) -> io::Result<()> {
+    #[cfg(unix)]
+    {
+        use rustix::process::{kill_process_group, Pid, Signal};
+        let group = i32::try_from(child.id()).ok().and_then(Pid::from_raw);
+        if let Some(group) = group {
+            let _ = kill_process_group(group, Signal::TERM);
+            let deadline = Instant::now() + GRACE;
+            while Instant::now() < deadline {
+                if child.try_wait()?.is_some() {
+                    // The stage is gone; anything it started in its group goes too.
+                    let _ = kill_process_group(group, Signal::KILL);
+                    return Ok(());
+                }
+                std::thread::sleep(Duration::from_millis(20));
+            }
+            let _ = kill_process_group(group, Signal::KILL);
+        }
+    }
+    let _ = child.kill();
+    child.wait().map(drop)
 }
 
 #[cfg(unix)]

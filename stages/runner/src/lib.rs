@@ -12,6 +12,7 @@
 //! | [`paths`] | normalising and resolving declared paths |
 //! | [`params`] | parameter values and their canonical forms |
 //! | [`dag`] | dependencies, cycles, run order |
+//! | [`guard`] | outputs that must not be written (user files, the pipeline file) |
 //! | [`locate`] | finding stage binaries |
 //! | [`hash`] | blake3 of files, memoised per command |
 //! | [`key`] | the cache key |
@@ -31,6 +32,7 @@ pub mod dag;
 pub mod dag_view;
 pub mod error;
 pub mod exec;
+pub mod guard;
 pub mod hash;
 pub mod inspect;
 pub mod key;

@@ -14,7 +14,7 @@ use crate::paths::ArtifactPath;
 
 const TOP_KEYS: &[&str] = &["pipeline", "stage"];
 const HEADER_KEYS: &[&str] = &["name", "artifacts"];
-const STAGE_KEYS: &[&str] = &["bin", "inputs", "outputs", "after", "params"];
+const STAGE_KEYS: &[&str] = &["bin", "inputs", "outputs", "after", "params", "allow_overwrite"];
 /// Flags the runner itself passes, or that every clap binary owns.
 const RESERVED: &[&str] = &["check", "help", "version"];
 
@@ -39,6 +39,8 @@ struct StageDef {
     after: Vec<String>,
     #[serde(default)]
     params: toml::Table,
+    #[serde(default)]
+    allow_overwrite: Vec<String>,
 }
 
 /// How a stage names its executable.
@@ -76,6 +78,9 @@ pub struct Stage {
     pub after: Vec<String>,
     /// Parameters in declaration order.
     pub params: Params,
+    /// Outputs (by name) that may replace an existing file this pipeline did not write
+    /// (see [`crate::guard`]).
+    pub allow_overwrite: Vec<String>,
 }
 
 /// A validated `pipeline.toml`.
@@ -85,6 +90,8 @@ pub struct Pipeline {
     pub file: String,
     /// The absolute directory of the pipeline file: stages run here and paths resolve here.
     pub dir: PathBuf,
+    /// The pipeline file's absolute path (no output may name it).
+    pub path: PathBuf,
     /// `[pipeline] name`.
     pub name: String,
     /// The artifacts directory, which holds the lock file.
@@ -130,6 +137,7 @@ impl Pipeline {
         let pipeline = Self {
             file: file.into(),
             dir: dir.to_path_buf(),
+            path: crate::paths::normalize(&dir.join(Path::new(file).file_name().unwrap_or_default())),
             name: header.name,
             artifacts: ArtifactPath::new(dir, &artifacts),
             stages,
@@ -160,6 +168,7 @@ impl Pipeline {
     }
 
     fn check_cross_stage(&self) -> Result<()> {
+        crate::guard::check_declared(self)?;
         let mut producers: HashMap<&Path, &str> = HashMap::new();
         for stage in &self.stages {
             for (_, path) in &stage.outputs {
@@ -248,7 +257,11 @@ impl Ctx<'_> {
             })?;
             params.push((param.clone(), value));
         }
-        let stage = Stage { name: name.into(), bin, inputs, outputs, after: def.after, params };
+        if let Some(unknown) = def.allow_overwrite.iter().find(|o| !outputs.iter().any(|(n, _)| n == *o)) {
+            return Err(self.invalid(&context, format!("`allow_overwrite` names `{unknown}`, which is not an output")));
+        }
+        let stage =
+            Stage { name: name.into(), bin, inputs, outputs, after: def.after, params, allow_overwrite: def.allow_overwrite };
         self.check_flags(&stage)?;
         Ok(stage)
     }
@@ -411,7 +424,7 @@ mod tests {
         assert!(err("[pipeline]\nname = \"x\"\n[stages.a]\nbin = \"a\"\n")
             .contains("top level: unknown key `stages` (did you mean `stage`?)"));
         assert!(err("[pipeline]\nname = \"x\"\n[stage.a]\nbin = \"a\"\nzzzzzzz = 1\n")
-            .contains("unknown key `zzzzzzz` (expected one of `bin`, `inputs`, `outputs`, `after`, `params`)"));
+            .contains("unknown key `zzzzzzz` (expected one of `bin`, `inputs`, `outputs`, `after`, `params`, `allow_overwrite`)"));
     }
 
     #[test]

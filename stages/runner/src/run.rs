@@ -37,17 +37,20 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
     let lock_path = pipeline.lock_path();
     let _running = hold_run_lock(&pipeline)?;
     let (mut lock, warning) = LockFile::load(&lock_path, &pipeline.name);
+    let lock_readable = warning.is_none();
     if let Some(warning) = warning {
         say(log, &format!("reprise: warning: {warning}"));
     }
-    lock.pipeline.clone_from(&pipeline.name);
-    lock.stages.retain(|name, _| pipeline.stage(name).is_some());
 
     let mut hasher = FileHasher::new();
     let ctx = cache::Inputs { pipeline: &pipeline, dag: &dag, lock: &lock, forced: &forced, dirs };
     let plan = cache::assess(&ctx, &mut hasher)?;
     let order: Vec<usize> = dag.order().iter().copied().filter(|i| selected.contains(i)).collect();
     let to_run: Vec<usize> = order.iter().copied().filter(|&i| !plan[i].is_fresh()).collect();
+    let stages_to_run: Vec<&Stage> = to_run.iter().map(|&i| &pipeline.stages[i]).collect();
+    crate::guard::check_existing(&pipeline, &stages_to_run, &lock, lock_readable)?;
+    lock.pipeline.clone_from(&pipeline.name);
+    lock.stages.retain(|name, _| pipeline.stage(name).is_some());
 
     if to_run.is_empty() {
         let scope = args.to.as_ref().map_or_else(String::new, |to| format!(" up to `{to}`"));
@@ -61,8 +64,9 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
     }
 
     let bins = preflight(&pipeline, &dag, &plan, &to_run)?;
+    let interrupt = exec::Interrupt::watch();
     say(log, &format!("{:>10} {} of {} stages", "checking", to_run.len(), order.len()));
-    check(&pipeline, &bins, &to_run)?;
+    check(&pipeline, &bins, &to_run, &interrupt)?;
 
     let (mut ran, mut cached) = (0, 0);
     for &i in &order {
@@ -72,9 +76,13 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
             cached += 1;
             continue;
         };
+        if let Some(signal) = interrupt.received() {
+            return Err(Error::Interrupted { stage: None, signal, name: exec::signal_name(signal) });
+        }
         let reasons: Vec<String> = plan[i].reasons.iter().map(ToString::to_string).collect();
         say(log, &format!("{:>10} {} ({})", "running", stage.name, reasons.join("; ")));
-        let result = run_stage(&pipeline, stage, bin, &mut hasher);
+        remove_stale_temps(stage);
+        let result = run_stage(&pipeline, stage, bin, &mut hasher, &interrupt);
         match result {
             Ok(entry) => {
                 let peak = entry.peak_rss_mb.map(|mb| format!(", peak memory {mb:.0} MB")).unwrap_or_default();
@@ -84,6 +92,7 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
                 ran += 1;
             }
             Err(e) => {
+                remove_stale_temps(stage);
                 if lock.stages.remove(&stage.name).is_some() {
                     lock.save(&lock_path)?;
                 }
@@ -127,13 +136,21 @@ fn preflight(
 }
 
 /// Invokes every stage to run with `--check`; all are tried so every problem shows at once.
-fn check(pipeline: &Pipeline, bins: &BTreeMap<usize, ResolvedBin>, to_run: &[usize]) -> Result<()> {
+fn check(
+    pipeline: &Pipeline,
+    bins: &BTreeMap<usize, ResolvedBin>,
+    to_run: &[usize],
+    interrupt: &exec::Interrupt,
+) -> Result<()> {
     let mut failures = Vec::new();
     let mut code = None;
     for &i in to_run {
         let stage = &pipeline.stages[i];
-        let (why, exit) = match exec::invoke(stage, &bins[&i].path, &pipeline.dir, true, None)? {
+        let (why, exit) = match exec::invoke(stage, &bins[&i].path, &pipeline.dir, true, None, interrupt)? {
             Outcome::Success => continue,
+            Outcome::Interrupted(signal) => {
+                return Err(Error::Interrupted { stage: Some(stage.name.clone()), signal, name: exec::signal_name(signal) })
+            }
             Outcome::Failed(c) => (format!("exit code {c}"), c),
             Outcome::Killed(s) => {
                 (format!("killed by signal {s} ({})", exec::signal_name(s)), reprise_stagekit::exit::STAGE_CRASHED)
@@ -149,7 +166,13 @@ fn check(pipeline: &Pipeline, bins: &BTreeMap<usize, ResolvedBin>, to_run: &[usi
 }
 
 /// Runs one stage and returns its lock entry; nothing is recorded on failure.
-fn run_stage(pipeline: &Pipeline, stage: &Stage, bin: &ResolvedBin, hasher: &mut FileHasher) -> Result<LockEntry> {
+fn run_stage(
+    pipeline: &Pipeline,
+    stage: &Stage,
+    bin: &ResolvedBin,
+    hasher: &mut FileHasher,
+    interrupt: &exec::Interrupt,
+) -> Result<LockEntry> {
     // Inputs are hashed now, after upstream stages of this run rewrote them.
     let inputs = cache::input_hashes(stage, hasher)?;
     let mut input_records = BTreeMap::new();
@@ -174,7 +197,7 @@ fn run_stage(pipeline: &Pipeline, stage: &Stage, bin: &ResolvedBin, hasher: &mut
     let _ = std::fs::create_dir_all(&pipeline.artifacts.abs);
     let _ = std::fs::remove_file(&stats);
     let started = Instant::now();
-    let outcome = exec::invoke(stage, &bin.path, &pipeline.dir, false, Some(&stats))?;
+    let outcome = exec::invoke(stage, &bin.path, &pipeline.dir, false, Some(&stats), interrupt)?;
     let seconds = started.elapsed().as_secs_f64();
     let peak_rss_mb = std::fs::read_to_string(&stats)
         .ok()
@@ -187,6 +210,9 @@ fn run_stage(pipeline: &Pipeline, stage: &Stage, bin: &ResolvedBin, hasher: &mut
         Outcome::Failed(code) => return Err(Error::StageFailed { stage: stage.name.clone(), code }),
         Outcome::Killed(signal) => {
             return Err(Error::StageKilled { stage: stage.name.clone(), signal, name: exec::signal_name(signal) });
+        }
+        Outcome::Interrupted(signal) => {
+            return Err(Error::Interrupted { stage: Some(stage.name.clone()), signal, name: exec::signal_name(signal) });
         }
     }
 
@@ -213,6 +239,28 @@ fn run_stage(pipeline: &Pipeline, stage: &Stage, bin: &ResolvedBin, hasher: &mut
         seconds,
         peak_rss_mb,
     })
+}
+
+/// Removes the temporary files (`.<name>.<pid>.tmp`) that a stage that died left beside
+/// its outputs. Only one run of a pipeline runs at a time and its stages die with it, so
+/// any such file is stale.
+fn remove_stale_temps(stage: &Stage) {
+    for (_, path) in &stage.outputs {
+        let (Some(dir), Some(name)) = (path.abs.parent(), path.abs.file_name()) else { continue };
+        let prefix = format!(".{}.", name.to_string_lossy());
+        let Ok(entries) = std::fs::read_dir(dir) else { continue };
+        for entry in entries.flatten() {
+            let file = entry.file_name();
+            let file = file.to_string_lossy();
+            let stale = file
+                .strip_prefix(&prefix)
+                .and_then(|rest| rest.strip_suffix(".tmp"))
+                .is_some_and(|pid| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()));
+            if stale {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
 }
 
 /// Takes an exclusive advisory lock on `<artifacts>/.reprise.running` for the length of

@@ -83,6 +83,7 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     let provenance = reprise_stagekit::provenance("scale", env!("CARGO_PKG_VERSION"), args)
         .with_input("labeled_frames", &args.labeled_frames)?
         .with_input("controls", &args.controls)?;
+    reprise_artifact::provenance::check_made_from(&args.labeled_frames, &provenance)?;
     let labeled = LabeledFrames::read(&args.labeled_frames)?;
     let controls = Controls::read(&args.controls)?;
     let (rig, layout) = reprise_stagekit::rig::open_rig(&controls, &labeled.frames.controls)?;

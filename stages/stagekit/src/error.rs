@@ -27,7 +27,8 @@ impl StageError {
     pub fn code(&self) -> i32 {
         match self {
             Self::Config(_) => exit::CONFIG,
-            Self::Artifact(ArtifactError::Io { .. }) | Self::Artifact(_) | Self::Input(_) => exit::INPUT,
+            Self::Artifact(ArtifactError::Io { source, .. }) if exit::is_environment(source) => exit::ENVIRONMENT,
+            Self::Artifact(_) | Self::Input(_) => exit::INPUT,
             Self::Numerical(_) => exit::NUMERICAL,
         }
     }
@@ -35,3 +36,18 @@ impl StageError {
 
 /// Result alias for stage code.
 pub type StageResult<T> = Result<T, StageError>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A refused write is the environment's fault; a missing input file is bad input.
+    #[test]
+    fn io_errors_by_cause() {
+        let io = |kind| StageError::Artifact(ArtifactError::io("x", std::io::Error::from(kind)));
+        assert_eq!(io(std::io::ErrorKind::PermissionDenied).code(), exit::ENVIRONMENT);
+        assert_eq!(io(std::io::ErrorKind::ReadOnlyFilesystem).code(), exit::ENVIRONMENT);
+        assert_eq!(io(std::io::ErrorKind::StorageFull).code(), exit::ENVIRONMENT);
+        assert_eq!(io(std::io::ErrorKind::NotFound).code(), exit::INPUT);
+    }
+}

@@ -6,6 +6,8 @@
 
 pub mod error;
 pub mod exit;
+pub mod lifetime;
+pub mod panic;
 pub mod rig;
 
 pub use error::{StageError, StageResult};
@@ -21,17 +23,35 @@ pub const STATS_ENV: &str = "REPRISE_STATS_FILE";
 
 /// Runs a stage body and exits the process: 0 on success, otherwise the error's code
 /// after printing `<binary>: error: <message>` once to stderr.
+///
+/// Around the body: a panic becomes one "internal error" line and exit code
+/// [`exit::FAILURE`] ([`panic`]); the stage dies with its runner ([`lifetime`]); and the
+/// stage's artifacts are replaced together — each is written to a temporary file as the
+/// stage goes, and all are renamed into place only once the body succeeded
+/// ([`reprise_artifact::table::defer_commits`]), so a stage that fails or is killed
+/// leaves every old output as it was.
 pub fn main(binary: &str, body: impl FnOnce() -> StageResult<()>) -> ! {
-    match body() {
-        Ok(()) => {
+    panic::install(binary);
+    lifetime::die_with_runner();
+    reprise_artifact::table::defer_commits();
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(body))
+        .map(|result| result.and_then(|()| Ok(reprise_artifact::table::commit_pending()?)));
+    match result {
+        Ok(Ok(())) => {
             if let (Some(path), Some(peak)) = (std::env::var_os(STATS_ENV), peak_rss_bytes()) {
                 let _ = std::fs::write(path, format!("{{\"peak_rss_bytes\": {peak}}}"));
             }
             std::process::exit(exit::OK)
         }
-        Err(e) => {
+        Ok(Err(e)) => {
+            reprise_artifact::table::discard_pending();
             eprintln!("{binary}: error: {e}");
             std::process::exit(e.code())
+        }
+        Err(_) => {
+            // The hook has printed the message.
+            reprise_artifact::table::discard_pending();
+            std::process::exit(exit::FAILURE)
         }
     }
 }
