@@ -42,6 +42,20 @@ impl Loaded {
 }
 
 /// Reads and validates `path`, refusing unsupported required extensions by name.
+/// Why a binary glTF is cut short, if it is: its 12-byte header states the total length.
+fn truncated_glb(bytes: &[u8]) -> Option<String> {
+    if !bytes.starts_with(b"glTF") {
+        return None;
+    }
+    let Some(length) = bytes.get(8..12) else {
+        return Some(format!("the file is truncated: {} bytes, shorter than a GLB header", bytes.len()));
+    };
+    let declared = u32::from_le_bytes(length.try_into().ok()?) as usize;
+    (bytes.len() < declared).then(|| {
+        format!("the file is truncated: its header declares {declared} bytes, the file has {} (an interrupted copy or download?)", bytes.len())
+    })
+}
+
 pub(crate) fn load(path: &Path) -> Result<Loaded, GltfError> {
     let bytes = std::fs::read(path).map_err(|source| GltfError::Io {
         path: path.to_path_buf(),
@@ -49,6 +63,9 @@ pub(crate) fn load(path: &Path) -> Result<Loaded, GltfError> {
         source,
     })?;
     let parse_err = |e: gltf::Error| GltfError::Parse { path: path.to_path_buf(), reason: e.to_string() };
+    if let Some(reason) = truncated_glb(&bytes) {
+        return Err(GltfError::Parse { path: path.to_path_buf(), reason });
+    }
     let gltf::Gltf { document: doc, blob } = gltf::Gltf::from_slice_without_validation(&bytes).map_err(parse_err)?;
 
     if let Some(ext) = doc.extensions_required().find(|e| !extension_is_harmless(e)) {
@@ -102,4 +119,18 @@ fn load_buffer(path: &Path, b: &gltf::Buffer<'_>, blob: Option<&[u8]>) -> Result
     }
     data.truncate(b.length());
     Ok(data)
+}
+
+#[cfg(test)]
+mod truncation_tests {
+    #[test]
+    fn truncated_glb_is_named() {
+        let mut glb = b"glTF".to_vec();
+        glb.extend_from_slice(&2u32.to_le_bytes());
+        glb.extend_from_slice(&1000u32.to_le_bytes());
+        glb.extend_from_slice(&[0; 20]);
+        assert!(super::truncated_glb(&glb).unwrap().contains("declares 1000 bytes, the file has 32"));
+        assert!(super::truncated_glb(b"glTF\x02").unwrap().contains("shorter than a GLB header"));
+        assert_eq!(super::truncated_glb(b"{\"asset\": {}}"), None);
+    }
 }
