@@ -35,7 +35,10 @@ fn stages_running_in(p: &Project) -> Vec<(u32, String)> {
         let comm = std::fs::read_to_string(entry.path().join("comm")).unwrap_or_default();
         let state = std::fs::read_to_string(entry.path().join("stat")).unwrap_or_default();
         let zombie = state.rsplit(')').next().is_some_and(|rest| rest.trim_start().starts_with('Z'));
-        if comm.starts_with("reprise-") && !zombie && std::fs::read_link(entry.path().join("cwd")).ok() == Some(dir.clone()) {
+        if comm.starts_with("reprise-")
+            && !zombie
+            && std::fs::read_link(entry.path().join("cwd")).ok() == Some(dir.clone())
+        {
             found.push((pid, comm.trim().to_string()));
         }
     }

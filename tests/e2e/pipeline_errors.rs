@@ -152,14 +152,15 @@ fn concurrent_run_is_refused() {
 fn output_over_a_user_file_is_refused() {
     let p = small("");
     let labels = p.read("labels.toml");
-    let pipeline = p.read("pipeline.toml").replace(
-        "outputs.clips = \"artifacts/small/clips.parquet\"",
-        "outputs.clips = \"labels.toml\"",
-    );
+    let pipeline = p
+        .read("pipeline.toml")
+        .replace("outputs.clips = \"artifacts/small/clips.parquet\"", "outputs.clips = \"labels.toml\"");
     p.write("pipeline.toml", &pipeline);
     let out = p.reprise(&["run"]).fails(exit::CONFIG);
     assert!(
-        out.contains("stage `ingest`: output `clips` is `labels.toml`, an existing file that no stage of this pipeline wrote"),
+        out.contains(
+            "stage `ingest`: output `clips` is `labels.toml`, an existing file that no stage of this pipeline wrote"
+        ),
         "{out}"
     );
     assert!(out.contains("allow_overwrite = [\"clips\"]") && !out.contains("checking"), "{out}");
@@ -171,10 +172,9 @@ fn output_over_a_user_file_is_refused() {
 #[test]
 fn output_over_the_pipeline_file_is_refused() {
     let p = small("");
-    let pipeline = p.read("pipeline.toml").replace(
-        "outputs.clips = \"artifacts/small/clips.parquet\"",
-        "outputs.clips = \"./pipeline.toml\"",
-    );
+    let pipeline = p
+        .read("pipeline.toml")
+        .replace("outputs.clips = \"artifacts/small/clips.parquet\"", "outputs.clips = \"./pipeline.toml\"");
     p.write("pipeline.toml", &pipeline);
     for command in [&["run"][..], &["status"]] {
         let out = p.reprise(command).fails(exit::CONFIG);
@@ -209,7 +209,11 @@ fn unwritable_output_places() {
     let pipeline = p.read("pipeline.toml");
     p.write("pipeline.toml", &pipeline.replace("artifacts/small/clips.parquet", "afile/clips.parquet"));
     let out = p.reprise(&["run"]).fails(exit::CONFIG);
-    assert!(out.contains("output `clips` is `afile/clips.parquet`, but") && out.contains("afile` is a file, not a directory"), "{out}");
+    assert!(
+        out.contains("output `clips` is `afile/clips.parquet`, but")
+            && out.contains("afile` is a file, not a directory"),
+        "{out}"
+    );
 
     // Read-only: the environment's fault (exit 6), not the data's (3). Root ignores
     // permissions, so this part only means something for other users.

@@ -11,7 +11,8 @@ use crate::util::Project;
 fn artifacts_of_another_rig_are_refused_by_scale_and_pca() {
     let p = Project::dragon_face();
     p.reprise(&["run", "--to", "scale"]).ok();
-    let seed8 = p.read("pipeline.toml").replace("artifacts/dragon-face", "artifacts/seed8").replace("seed = 7", "seed = 8");
+    let seed8 =
+        p.read("pipeline.toml").replace("artifacts/dragon-face", "artifacts/seed8").replace("seed = 7", "seed = 8");
     p.write("pipeline8.toml", &seed8.replace("name = \"dragon-face\"", "name = \"seed8\""));
     p.reprise(&["run", "--pipeline", "pipeline8.toml", "--to", "ingest"]).ok();
     p.write(
@@ -35,7 +36,8 @@ outputs.errors = "artifacts/mix/pca_errors.parquet"
         "{out}"
     );
     assert!(!p.path("artifacts/mix/pca_models.parquet").exists());
-    let scale = p.read("mix.toml").replace("[stage.pca]\nbin = \"reprise-pca\"", "[stage.scale]\nbin = \"reprise-scale\"");
+    let scale =
+        p.read("mix.toml").replace("[stage.pca]\nbin = \"reprise-pca\"", "[stage.scale]\nbin = \"reprise-scale\"");
     let scale = scale.replace("inputs.scales = \"artifacts/dragon-face/scales.parquet\"\n", "");
     let scale = scale.replace("outputs.models = \"artifacts/mix/pca_models.parquet\"\noutputs.coords = \"artifacts/mix/pca_coords.parquet\"\noutputs.errors = \"artifacts/mix/pca_errors.parquet\"", "outputs.scales = \"artifacts/mix/scales.parquet\"");
     p.write("mix.toml", &scale);

@@ -366,7 +366,11 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
         counts.push(count);
     }
     bridges::write(&args.bridges, &all, models[0].q(), &provenance)?;
-    Ok(Some(Outcome { counts, frame_motion: mesh_max.map(|m| m.0).filter(|m| m.is_finite()), max_mesh: mesh_max.map(|m| m.1) }))
+    Ok(Some(Outcome {
+        counts,
+        frame_motion: mesh_max.map(|m| m.0).filter(|m| m.is_finite()),
+        max_mesh: mesh_max.map(|m| m.1),
+    }))
 }
 
 #[cfg(test)]

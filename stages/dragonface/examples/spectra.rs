@@ -80,7 +80,11 @@ fn main() {
 /// Eigenvalues (descending) of a symmetric matrix by cyclic Jacobi sweeps.
 fn jacobi_eigenvalues(a: &mut [f64], n: usize) -> Vec<f64> {
     for _ in 0..12 {
-        let off: f64 = (0..n).flat_map(|i| (0..n).map(move |j| (i, j))).filter(|(i, j)| i != j).map(|(i, j)| a[i * n + j].powi(2)).sum();
+        let off: f64 = (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .filter(|(i, j)| i != j)
+            .map(|(i, j)| a[i * n + j].powi(2))
+            .sum();
         let diag: f64 = (0..n).map(|i| a[i * n + i].powi(2)).sum();
         if off < 1e-14 * diag {
             break;

@@ -531,12 +531,14 @@ mod tests {
         // head_shake oscillates the head's yaw (neck + head): many direction changes with
         // large swings.
         let yaw_std = |t: &Take| {
-            let yaw: Vec<f64> = (0..t.frame_count).map(|f| t.frame(f)[idx("head_ry")] + t.frame(f)[idx("neck_ry")]).collect();
+            let yaw: Vec<f64> =
+                (0..t.frame_count).map(|f| t.frame(f)[idx("head_ry")] + t.frame(f)[idx("neck_ry")]).collect();
             mean_std(&yaw).1
         };
         let neutral_yaw = corpus().takes.iter().filter(|t| t.label == "neutral").map(yaw_std).fold(0.0, f64::max);
         for t in corpus().takes.iter().filter(|t| t.label == "head_shake") {
-            let yaw: Vec<f64> = (0..t.frame_count).map(|f| t.frame(f)[idx("head_ry")] + t.frame(f)[idx("neck_ry")]).collect();
+            let yaw: Vec<f64> =
+                (0..t.frame_count).map(|f| t.frame(f)[idx("head_ry")] + t.frame(f)[idx("neck_ry")]).collect();
             let turns =
                 yaw.windows(3).filter(|w| (w[1] - w[0]) * (w[2] - w[1]) < 0.0 && (w[1] - w[0]).abs() > 0.5).count();
             let (_, sd) = mean_std(&yaw);
@@ -639,7 +641,12 @@ mod tests {
 
     /// Good takes of `label`, with their usable frame count.
     fn good_takes(label: &str) -> Vec<(&'static Take, usize)> {
-        corpus().takes.iter().filter(|t| t.label == label && t.kind == TakeKind::Good).map(|t| (t, t.good_frame_count())).collect()
+        corpus()
+            .takes
+            .iter()
+            .filter(|t| t.label == label && t.kind == TakeKind::Good)
+            .map(|t| (t, t.good_frame_count()))
+            .collect()
     }
 
     #[test]
@@ -751,7 +758,11 @@ mod tests {
         r2.sort_by(|a, b| a.0.total_cmp(&b.0));
         let median = r2[r2.len() / 2].0;
         let high = r2.iter().filter(|r| r.0 > 0.5).count();
-        println!("held-out R² of fine on coarse: median {median:.2}, {high} of {} above 0.5, worst {:?}", r2.len(), r2.last());
+        println!(
+            "held-out R² of fine on coarse: median {median:.2}, {high} of {} above 0.5, worst {:?}",
+            r2.len(),
+            r2.last()
+        );
         assert!(median < 0.2 && high * 20 < r2.len(), "median R² {median:.2}, {high} above 0.5, worst {:?}", r2.last());
     }
 

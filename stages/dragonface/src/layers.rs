@@ -79,7 +79,8 @@ pub(crate) fn ear_flicks(rig: &DragonRig, label: &str, v: &mut [f64], frames: us
     for (s, _) in SIDES {
         let mut t = rng.gen_range(0.0..1.0 / rate) * FPS;
         while (t as usize) < frames {
-            let (up, out) = (rng.gen_range(10.0..25.0) * if rng.gen_bool(0.6) { -1.0 } else { 1.0 }, rng.gen_range(-8.0..8.0));
+            let (up, out) =
+                (rng.gen_range(10.0..25.0) * if rng.gen_bool(0.6) { -1.0 } else { 1.0 }, rng.gen_range(-8.0..8.0));
             let (rise, fall) = (rng.gen_range(2.0..3.0), rng.gen_range(6.0..12.0));
             let f0 = t as usize;
             for f in f0..(f0 + (rise + fall) as usize + 2).min(frames) {
@@ -217,7 +218,8 @@ pub(crate) fn cheek_secondary(rig: &DragonRig, v: &mut [f64], frames: usize) {
     let resp = spring_response(&drive, omega, 0.35, 4);
     for (s, _) in SIDES {
         for seg in 5..=8 {
-            let (out, inn) = (ctl(rig, &format!("cheek_{s}_{seg:02}_out")), ctl(rig, &format!("cheek_{s}_{seg:02}_in")));
+            let (out, inn) =
+                (ctl(rig, &format!("cheek_{s}_{seg:02}_out")), ctl(rig, &format!("cheek_{s}_{seg:02}_in")));
             for f in 0..frames {
                 v[f * c + out] += resp[f].max(0.0);
                 v[f * c + inn] += (-resp[f]).max(0.0);

@@ -158,14 +158,21 @@ pub(crate) fn schedule(spec: &ScheduleSpec<'_>, rng: &mut ChaCha8Rng) -> PoseKey
 
 /// The right half of a sided part: the left schedule's keys `lag` frames later, each
 /// mixed a share `mix` (per key, drawn from the range) toward a pose of its own.
-pub(crate) fn right_side(left: &PoseKeys, lag: f64, mix: (f64, f64), spec: &ScheduleSpec<'_>, rng: &mut ChaCha8Rng) -> PoseKeys {
+pub(crate) fn right_side(
+    left: &PoseKeys,
+    lag: f64,
+    mix: (f64, f64),
+    spec: &ScheduleSpec<'_>,
+    rng: &mut ChaCha8Rng,
+) -> PoseKeys {
     let mut keys = PoseKeys::default();
     let defaults = spec.rig.default_pose();
     for (t, pose) in left.frames.iter().zip(&left.poses) {
         let own = key_pose(spec.rig, spec.label, false, rng);
         let a = rng.gen_range(mix.0..mix.1);
         let amp = spec.mood.amp;
-        let p: Vec<f64> = pose.iter().zip(&own).zip(&defaults).map(|((l, o), d)| l + a * (d + amp * (o - d) - l)).collect();
+        let p: Vec<f64> =
+            pose.iter().zip(&own).zip(&defaults).map(|((l, o), d)| l + a * (d + amp * (o - d) - l)).collect();
         keys.push(t + lag, p);
     }
     keys

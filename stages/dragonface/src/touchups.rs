@@ -39,7 +39,14 @@ fn clock(style: &Style, frames: usize, rng: &mut ChaCha8Rng) -> Vec<f64> {
 }
 
 /// Write the fine-shape touch-ups of one take into `v` (row-major, `frames × C`).
-pub(crate) fn fine_shapes(rig: &DragonRig, label: &str, style: &Style, v: &mut [f64], frames: usize, rng: &mut ChaCha8Rng) {
+pub(crate) fn fine_shapes(
+    rig: &DragonRig,
+    label: &str,
+    style: &Style,
+    v: &mut [f64],
+    frames: usize,
+    rng: &mut ChaCha8Rng,
+) {
     let c = rig.controls().len();
     let p = share(label);
     for fam in &FINE_FAMILIES {

@@ -198,7 +198,8 @@ fn metric(system: &str, name: &str, from: &str, to: &str, values: &[f64], unit: 
 /// `reprise-baseline`; below 0, reprise is lower).
 fn paired(ours: &[Measured], theirs: &[Measured], pairs: &[(String, String)]) -> Vec<Metric> {
     let by_id: std::collections::HashMap<i64, &Measured> = theirs.iter().map(|m| (m.request, m)).collect();
-    let both: Vec<(&Measured, &Measured)> = ours.iter().filter_map(|a| by_id.get(&a.request).map(|b| (a, *b))).collect();
+    let both: Vec<(&Measured, &Measured)> =
+        ours.iter().filter_map(|a| by_id.get(&a.request).map(|b| (a, *b))).collect();
     fn mean(v: &[f64]) -> f64 {
         v.iter().sum::<f64>() / v.len().max(1) as f64
     }
@@ -436,7 +437,8 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
                             * fps
                     })
                     .collect();
-                let jump = peak_speeds(&m, dim, fps)[(lo + 1).min(f.len())..].iter().copied().fold(0.0, f64::max) / speed99;
+                let jump =
+                    peak_speeds(&m, dim, fps)[(lo + 1).min(f.len())..].iter().copied().fold(0.0, f64::max) / speed99;
                 Ok(Measured {
                     request: r.request,
                     jump,
@@ -660,7 +662,16 @@ fn report(m: &[Metric], labels: &[String], refs: TrainingRefs, args: &Args, scc:
     let _ = writeln!(s, "| metric | reprise | Motion Graphs | better |\n|---|---|---|---|");
     let lower_better = ["peak_accel_ratio", "peak_jerk_ratio", "latency_s", "plausibility"];
     let mut wins = (Vec::new(), Vec::new());
-    for name in ["answered", "success", "coverage", "latency_s", "peak_accel_ratio", "peak_jerk_ratio", "plausibility", "variety"] {
+    for name in [
+        "answered",
+        "success",
+        "coverage",
+        "latency_s",
+        "peak_accel_ratio",
+        "peak_jerk_ratio",
+        "plausibility",
+        "variety",
+    ] {
         let (a, b) = (find(m, "reprise", name, "all", "all"), find(m, "baseline", name, "all", "all"));
         let better = match (a, b) {
             // Variety rewards random-force noise as much as real alternatives: it is reported
@@ -684,8 +695,11 @@ fn report(m: &[Metric], labels: &[String], refs: TrainingRefs, args: &Args, scc:
         let _ = writeln!(s, "| `{name}` | {} | {} | {better} |", cell(a), cell(b));
     }
     let cov = |sys: &str| {
-        let v: Vec<f64> =
-            m.iter().filter(|x| x.system == sys && x.metric == "coverage" && x.from != "all").map(|x| x.value).collect();
+        let v: Vec<f64> = m
+            .iter()
+            .filter(|x| x.system == sys && x.metric == "coverage" && x.from != "all")
+            .map(|x| x.value)
+            .collect();
         v.iter().sum::<f64>() / v.len().max(1) as f64
     };
     let pts = |sys: &str| {

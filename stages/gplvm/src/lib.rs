@@ -21,8 +21,7 @@ use reprise_artifact::gplvm::{self, FitSummary, GplvmModel, Latents, Trace};
 
 use reprise_artifact::pca::{self, SCALED};
 use reprise_numerics::gplvm::{
-    ConnectivityParams, ConnectivityPath, DynamicsParams, Fit, FitConfig, FitData, Jitter, LikelihoodConfig,
-    Optimizer,
+    ConnectivityParams, ConnectivityPath, DynamicsParams, Fit, FitConfig, FitData, Jitter, LikelihoodConfig, Optimizer,
 };
 use reprise_numerics::optim::{Convergence, StopReason};
 use reprise_numerics::scg::ScgOptions;
@@ -260,7 +259,10 @@ impl Args {
             (self.q >= 1, "--q must be at least 1"),
             (self.max_iters >= 1, "--max-iters must be at least 1"),
             (pos(self.xtol) && pos(self.ftol), "--xtol and --ftol must be positive"),
-            (self.window >= 1 && pos(self.rel_ftol) && pos(self.rel_gtol), "--window, --rel-ftol and --rel-gtol must be positive"),
+            (
+                self.window >= 1 && pos(self.rel_ftol) && pos(self.rel_gtol),
+                "--window, --rel-ftol and --rel-gtol must be positive",
+            ),
             (self.connectivity_stride >= 1, "--connectivity-stride must be at least 1"),
             (
                 !(self.stop == StopRule::Netlab && self.optimizer == OptimizerKind::Lbfgs),

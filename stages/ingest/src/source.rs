@@ -140,7 +140,9 @@ impl RawTable {
                             Err(_) if cell.replacen(',', ".", 1).parse::<f64>().is_ok() => Err(self.error(
                                 row,
                                 column,
-                                &format!("`{cell}` has a decimal comma; reprise reads numbers with a decimal point (`.`)"),
+                                &format!(
+                                    "`{cell}` has a decimal comma; reprise reads numbers with a decimal point (`.`)"
+                                ),
                             )),
                             Err(_) => Err(self.error(row, column, &format!("`{cell}` is not a number"))),
                         }

@@ -171,13 +171,7 @@ impl LabelsFile {
             let origin = format!("range {}", i + 1);
             let range = range(path, &origin, Some(r.start), Some(r.end))?;
             let label = label_name(path, &origin, r.label)?;
-            entries.push(Entry {
-                origin,
-                target: Target::Clip(r.clip),
-                range,
-                label,
-                reason: String::new(),
-            });
+            entries.push(Entry { origin, target: Target::Clip(r.clip), range, label, reason: String::new() });
         }
         for (i, x) in file.exclude.into_iter().enumerate() {
             let origin = format!("exclude {}", i + 1);

@@ -54,7 +54,9 @@ pub fn peak_speeds(x: &[f64], dim: usize, fps: f64) -> Vec<f64> {
                 return 0.0;
             }
             let (a, b) = (&x[(t - 1) * dim..t * dim], &x[t * dim..(t + 1) * dim]);
-            (0..dim / 3).map(|v| (0..3).map(|k| (b[3 * v + k] - a[3 * v + k]).powi(2)).sum::<f64>().sqrt()).fold(0.0, f64::max)
+            (0..dim / 3)
+                .map(|v| (0..3).map(|k| (b[3 * v + k] - a[3 * v + k]).powi(2)).sum::<f64>().sqrt())
+                .fold(0.0, f64::max)
                 * fps
         })
         .collect()
@@ -122,7 +124,10 @@ mod tests {
     /// speed is the mover's step × fps.
     #[test]
     fn peak_speeds_find_the_jump() {
-        let x = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0, 7.0, 0.0, 0.0];
+        let x = [
+            0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+            7.0, 0.0, 0.0,
+        ];
         assert_eq!(peak_speeds(&x, 6, 24.0), vec![0.0, 24.0, 24.0, 120.0]);
     }
 

@@ -46,7 +46,14 @@ pub struct LbfgsOptions {
 
 impl Default for LbfgsOptions {
     fn default() -> Self {
-        Self { memory: 10, max_iters: 10_000, convergence: Convergence::default(), c1: 1e-4, c2: 0.9, max_line_search: 20 }
+        Self {
+            memory: 10,
+            max_iters: 10_000,
+            convergence: Convergence::default(),
+            c1: 1e-4,
+            c2: 0.9,
+            max_line_search: 20,
+        }
     }
 }
 
@@ -244,7 +251,9 @@ where
             match line_search(&mut f, &x, fx, slope, &d, alpha0, opts, &mut evaluations) {
                 Search::Found(p) => break p,
                 Search::NaN => return stop(x, fx, &g, StopReason::NonFinite, &monitor, trace, evaluations),
-                Search::Failed if pairs.is_empty() => return stop(x, fx, &g, StopReason::Stalled, &monitor, trace, evaluations),
+                Search::Failed if pairs.is_empty() => {
+                    return stop(x, fx, &g, StopReason::Stalled, &monitor, trace, evaluations)
+                }
                 Search::Failed => pairs.clear(),
             }
         };
@@ -280,7 +289,10 @@ mod tests {
     }
 
     fn tight() -> LbfgsOptions {
-        LbfgsOptions { convergence: Convergence { window: 3, ftol: 1e-14, gtol: 1e-10, f_typical: 1.0 }, ..Default::default() }
+        LbfgsOptions {
+            convergence: Convergence { window: 3, ftol: 1e-14, gtol: 1e-10, f_typical: 1.0 },
+            ..Default::default()
+        }
     }
 
     /// ½xᵀAx − bᵀx with A = diag(1, 10, 100), b = 1 (method.md §4.5's oracle): the

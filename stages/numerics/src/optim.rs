@@ -86,11 +86,8 @@ impl Monitor {
         }
         let scale = f.abs().max(self.rule.f_typical);
         let full = self.values.len() == self.rule.window.max(1) + 1;
-        let rel_decrease = if full {
-            (self.values[0] - f) / (self.rule.window.max(1) as f64 * scale)
-        } else {
-            f64::INFINITY
-        };
+        let rel_decrease =
+            if full { (self.values[0] - f) / (self.rule.window.max(1) as f64 * scale) } else { f64::INFINITY };
         let rel_gradient = self.rule.rel_gradient(f, x, g);
         self.last = ConvergenceMeasures { rel_decrease, rel_gradient };
         rel_decrease <= self.rule.ftol && rel_gradient <= self.rule.gtol

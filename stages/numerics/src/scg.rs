@@ -158,7 +158,15 @@ where
             }
             kappa = dot(&d, &d);
             if kappa < f64::EPSILON {
-                return finish(x, f_old, &g, (j - 1, evaluations), StopReason::TinyDirection, monitor.measures(), trace);
+                return finish(
+                    x,
+                    f_old,
+                    &g,
+                    (j - 1, evaluations),
+                    StopReason::TinyDirection,
+                    monitor.measures(),
+                    trace,
+                );
             }
             let sigma = opts.sigma0 / kappa.sqrt();
             x_trial.iter_mut().zip(x.iter().zip(&d)).for_each(|(t, (x, d))| *t = x + sigma * d);

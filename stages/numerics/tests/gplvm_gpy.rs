@@ -293,7 +293,8 @@ fn optimisers_reach_gpy_lbfgsb_objective() {
     println!("|---|---|---|---|---|---|---|---|---|");
     let rule = Convergence { f_typical: (N * D) as f64, ..Default::default() };
     for opt in [Optimizer::lbfgs(rule, 10_000), Optimizer::scg(rule, 10_000)] {
-        let mut obj = Objective::new(Likelihood::new(&r.y, D, Q, LikelihoodConfig::default()).unwrap(), None, None).unwrap();
+        let mut obj =
+            Objective::new(Likelihood::new(&r.y, D, Q, LikelihoodConfig::default()).unwrap(), None, None).unwrap();
         let p0 = obj.layout().pack(&r.x, &hyper);
         let start = std::time::Instant::now();
         let res = opt.run(|p, g| obj.evaluate(p, g), &p0);

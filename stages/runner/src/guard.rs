@@ -143,7 +143,8 @@ mod tests {
     #[test]
     fn declared_paths_that_are_never_outputs() {
         let dir = Path::new("/p");
-        assert!(err(dir, "outputs.o = \"./pipeline.toml\"").contains("output `o` is `pipeline.toml`, the pipeline file itself"));
+        assert!(err(dir, "outputs.o = \"./pipeline.toml\"")
+            .contains("output `o` is `pipeline.toml`, the pipeline file itself"));
         assert!(err(dir, "outputs.o = \"art/reprise.lock\"").contains("the runner's own lock file"));
         assert!(err(dir, "outputs.o = \"src.txt\"").contains("also an input of the same stage"));
         assert!(err(dir, "outputs.o = \"art\"").contains("the artifacts directory"));

@@ -260,8 +260,15 @@ impl Ctx<'_> {
         if let Some(unknown) = def.allow_overwrite.iter().find(|o| !outputs.iter().any(|(n, _)| n == *o)) {
             return Err(self.invalid(&context, format!("`allow_overwrite` names `{unknown}`, which is not an output")));
         }
-        let stage =
-            Stage { name: name.into(), bin, inputs, outputs, after: def.after, params, allow_overwrite: def.allow_overwrite };
+        let stage = Stage {
+            name: name.into(),
+            bin,
+            inputs,
+            outputs,
+            after: def.after,
+            params,
+            allow_overwrite: def.allow_overwrite,
+        };
         self.check_flags(&stage)?;
         Ok(stage)
     }
@@ -423,8 +430,9 @@ mod tests {
             .starts_with("pipeline.toml: [pipeline]: unknown key `nmae` (did you mean `name`?)"));
         assert!(err("[pipeline]\nname = \"x\"\n[stages.a]\nbin = \"a\"\n")
             .contains("top level: unknown key `stages` (did you mean `stage`?)"));
-        assert!(err("[pipeline]\nname = \"x\"\n[stage.a]\nbin = \"a\"\nzzzzzzz = 1\n")
-            .contains("unknown key `zzzzzzz` (expected one of `bin`, `inputs`, `outputs`, `after`, `params`, `allow_overwrite`)"));
+        assert!(err("[pipeline]\nname = \"x\"\n[stage.a]\nbin = \"a\"\nzzzzzzz = 1\n").contains(
+            "unknown key `zzzzzzz` (expected one of `bin`, `inputs`, `outputs`, `after`, `params`, `allow_overwrite`)"
+        ));
     }
 
     #[test]

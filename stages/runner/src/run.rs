@@ -149,7 +149,11 @@ fn check(
         let (why, exit) = match exec::invoke(stage, &bins[&i].path, &pipeline.dir, true, None, interrupt)? {
             Outcome::Success => continue,
             Outcome::Interrupted(signal) => {
-                return Err(Error::Interrupted { stage: Some(stage.name.clone()), signal, name: exec::signal_name(signal) })
+                return Err(Error::Interrupted {
+                    stage: Some(stage.name.clone()),
+                    signal,
+                    name: exec::signal_name(signal),
+                })
             }
             Outcome::Failed(c) => (format!("exit code {c}"), c),
             Outcome::Killed(s) => {
@@ -212,7 +216,11 @@ fn run_stage(
             return Err(Error::StageKilled { stage: stage.name.clone(), signal, name: exec::signal_name(signal) });
         }
         Outcome::Interrupted(signal) => {
-            return Err(Error::Interrupted { stage: Some(stage.name.clone()), signal, name: exec::signal_name(signal) });
+            return Err(Error::Interrupted {
+                stage: Some(stage.name.clone()),
+                signal,
+                name: exec::signal_name(signal),
+            });
         }
     }
 

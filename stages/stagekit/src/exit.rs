@@ -26,8 +26,5 @@ pub const INTERRUPTED_BASE: i32 = 128;
 /// Whether an I/O error is the machine's doing ([`ENVIRONMENT`]) rather than the data's.
 pub fn is_environment(e: &std::io::Error) -> bool {
     use std::io::ErrorKind as K;
-    matches!(
-        e.kind(),
-        K::PermissionDenied | K::ReadOnlyFilesystem | K::StorageFull | K::QuotaExceeded | K::OutOfMemory
-    )
+    matches!(e.kind(), K::PermissionDenied | K::ReadOnlyFilesystem | K::StorageFull | K::QuotaExceeded | K::OutOfMemory)
 }

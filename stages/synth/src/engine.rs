@@ -404,7 +404,14 @@ impl<'l, 'a> Run<'l, 'a> {
         Ok(())
     }
 
-    fn go(&mut self, to: &[f64], kind: PathKind, r: f64, min_seconds: Option<f64>, what: &str) -> Result<(), SynthError> {
+    fn go(
+        &mut self,
+        to: &[f64],
+        kind: PathKind,
+        r: f64,
+        min_seconds: Option<f64>,
+        what: &str,
+    ) -> Result<(), SynthError> {
         let m = self.lib.models[self.cur.model];
         let from = self.cur.target.clone();
         let poly = match kind {
@@ -672,12 +679,9 @@ mod tests {
             let out = run(lib, &script(cmds, 2), &Settings::default()).unwrap();
             let sw = out.iter().position(|f| f.model == 1).expect("switched");
             assert!(out[..sw].iter().all(|f| f.model == 0) && out[sw..].iter().all(|f| f.model == 1));
-            let arrival = ARRIVAL_SLACK * Settings::default().tight_radius.max(typical_speed(&lib.frames[0], 24.0).unwrap() / 24.0);
-            assert!(
-                dist(&out[sw - 1].x, &[0.8, 1.27]) <= arrival,
-                "switches at the bridge: {:?}",
-                out[sw - 1].x
-            );
+            let arrival = ARRIVAL_SLACK
+                * Settings::default().tight_radius.max(typical_speed(&lib.frames[0], 24.0).unwrap() / 24.0);
+            assert!(dist(&out[sw - 1].x, &[0.8, 1.27]) <= arrival, "switches at the bridge: {:?}", out[sw - 1].x);
             let step = |i: usize| dist(&out[i].controls, &out[i - 1].controls);
             let across = (sw..sw + 12).map(step).fold(0.0, f64::max);
             // Without the blend the switch would jump by the offset between the models (≈0.7).
@@ -703,7 +707,9 @@ mod tests {
             let a = k as f64 * 0.08;
             let x1 = [a.cos() * 1.5, a.sin() * 1.5];
             let d = dist(&x1, &[1.5, 0.0]);
-            let lat = with_lib(vec![link("a", "b", x1, x1)], |lib| latency(&run(lib, &script(cmds.clone(), 0), &set).unwrap(), 0, 1));
+            let lat = with_lib(vec![link("a", "b", x1, x1)], |lib| {
+                latency(&run(lib, &script(cmds.clone(), 0), &set).unwrap(), 0, 1)
+            });
             let expect = d * 24.0;
             assert!(lat as f64 >= expect && (lat as f64) < expect + 24.0, "bridge {d:.2} away: {lat} frames");
             if i > 0 {
@@ -727,7 +733,8 @@ mod tests {
         let cmds = vec![Command::Transition { to: "b".into(), blend_frames: Some(12) }];
         for seed in 0..8 {
             let x1 = [(25.0f64 * 0.08).cos() * 1.5, (25.0f64 * 0.08).sin() * 1.5];
-            let out = with_lib(vec![link("a", "b", x1, x1)], |lib| run(lib, &script(cmds.clone(), seed), &set).unwrap());
+            let out =
+                with_lib(vec![link("a", "b", x1, x1)], |lib| run(lib, &script(cmds.clone(), seed), &set).unwrap());
             let sw = out.iter().position(|f| f.model == 1).unwrap();
             let before = &out[sw - 1];
             // The arrival radius: the tight radius, or one frame of travel if that is larger.
@@ -751,15 +758,21 @@ mod tests {
             Command::Idle { duration: 1.0, radius: None, poses: vec![], hover: None },
         ];
         for seed in 0..6 {
-            let out = with_lib(vec![link("a", "b", x1, x1)], |lib| run(lib, &script(cmds.clone(), seed), &set).unwrap());
+            let out =
+                with_lib(vec![link("a", "b", x1, x1)], |lib| run(lib, &script(cmds.clone(), seed), &set).unwrap());
             let sw = out.iter().position(|f| f.model == 1).unwrap();
-            let vel = |i: usize| -> Vec<f64> { out[i].controls.iter().zip(&out[i - 1].controls).map(|(a, b)| a - b).collect() };
+            let vel = |i: usize| -> Vec<f64> {
+                out[i].controls.iter().zip(&out[i - 1].controls).map(|(a, b)| a - b).collect()
+            };
             let acc = |i: usize| dist(&vel(i + 1), &vel(i));
             let across = (sw - 1..sw + 13).map(acc).fold(0.0, f64::max);
             let elsewhere = (2..sw - 2).chain(sw + 14..out.len() - 1).map(acc).fold(0.0, f64::max);
             let step = (sw..sw + 12).map(|i| norm(&vel(i))).fold(0.0, f64::max);
             assert!(step < 0.12, "seed {seed}: largest step across the blend {step}");
-            assert!(across < elsewhere + 0.05, "seed {seed}: acceleration {across} across the blend, {elsewhere} elsewhere");
+            assert!(
+                across < elsewhere + 0.05,
+                "seed {seed}: acceleration {across} across the blend, {elsewhere} elsewhere"
+            );
         }
         // The outgoing stream is live: what the blend took from it, (p − w g_b(x_b)) / (1 − w),
         // keeps moving during the blend (a frozen last pose would make it constant).

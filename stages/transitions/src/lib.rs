@@ -117,7 +117,10 @@ impl Baseline<'_> {
         let mut at = start;
         while !alive[at] {
             let Some(&(w, _, _)) = g.adj[at].iter().find(|&&(_, _, id)| edges[id].kind == "next") else {
-                return Err("the start frame's clip never enters the motion graph's largest strongly connected component".into());
+                return Err(
+                    "the start frame's clip never enters the motion graph's largest strongly connected component"
+                        .into(),
+                );
             };
             out.push((labeled.label[w].clone(), row(w)));
             at = w;
@@ -332,7 +335,8 @@ mod tests {
         let k = 4;
         for (start, leave) in [(10usize, 10usize), (5, 10)] {
             // next edges within each label; one transition a_leave -> b_20 (blend with b_{17..20}).
-            let mut edges: Vec<motion_graph::Edge> = (0..79).filter(|&i| i != 39).map(|i| edge(i, i + 1, "next")).collect();
+            let mut edges: Vec<motion_graph::Edge> =
+                (0..79).filter(|&i| i != 39).map(|i| edge(i, i + 1, "next")).collect();
             edges.push(edge(leave, 40 + 20, "transition"));
             let mut g = Graph::new(80);
             for (i, e) in edges.iter().enumerate() {

@@ -322,10 +322,8 @@ pub struct FitSummary {
 pub fn write_fits(path: &Path, rows: &[FitSummary], provenance: &Provenance) -> Result<()> {
     let i = |f: fn(&FitSummary) -> i64| rows.iter().map(f).collect::<Vec<_>>();
     let x = |f: fn(&FitSummary) -> f64| rows.iter().map(f).collect::<Vec<_>>();
-    let stage_iterations: Vec<String> = rows
-        .iter()
-        .map(|r| r.stage_iterations.iter().map(i64::to_string).collect::<Vec<_>>().join("+"))
-        .collect();
+    let stage_iterations: Vec<String> =
+        rows.iter().map(|r| r.stage_iterations.iter().map(i64::to_string).collect::<Vec<_>>().join("+")).collect();
     let stage_iterations: Vec<&str> = stage_iterations.iter().map(String::as_str).collect();
     let cols = Columns::new()
         .str("label", &rows.iter().map(|r| r.label.as_str()).collect::<Vec<_>>())

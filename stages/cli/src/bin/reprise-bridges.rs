@@ -6,7 +6,9 @@ fn main() {
     reprise_stagekit::main("reprise-bridges", || {
         if let Some(out) = reprise_bridges::run(&args)? {
             if let (Some(m), Some(max)) = (out.frame_motion, out.max_mesh) {
-                eprintln!("per-frame mesh motion at the chosen quantile {m:.4}; bridges keep mesh distances up to {max:.4}");
+                eprintln!(
+                    "per-frame mesh motion at the chosen quantile {m:.4}; bridges keep mesh distances up to {max:.4}"
+                );
             }
             eprintln!("{:<12} {:<12} {:>10} {:>5} {:>12}", "from", "to", "candidates", "kept", "best rig dist");
             for c in &out.counts {
@@ -14,7 +16,10 @@ fn main() {
             }
             let none = out.counts.iter().filter(|c| c.kept == 0).count();
             if none > 0 {
-                eprintln!("{none} of {} ordered pairs have no direct bridge (synthesis routes through a third label)", out.counts.len());
+                eprintln!(
+                    "{none} of {} ordered pairs have no direct bridge (synthesis routes through a third label)",
+                    out.counts.len()
+                );
             }
         }
         Ok(())

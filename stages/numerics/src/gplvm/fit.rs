@@ -22,8 +22,8 @@
 
 use super::params::JitterUsed;
 use super::{
-    subset_rows, ConnectivityParams, ConnectivityPrior, DynamicsParams, DynamicsPrior, EvalInfo, GplvmError, Hyper, Likelihood,
-    LikelihoodConfig, Objective, Predictor,
+    subset_rows, ConnectivityParams, ConnectivityPrior, DynamicsParams, DynamicsPrior, EvalInfo, GplvmError, Hyper,
+    Likelihood, LikelihoodConfig, Objective, Predictor,
 };
 use crate::lbfgs::{lbfgs, LbfgsOptions};
 use crate::optim::{Convergence, OptInfo, OptIter, OptResult, StopReason};
@@ -393,8 +393,16 @@ fn merge(runs: Vec<OptResult>) -> (OptResult, Vec<usize>) {
     let mut total = runs.next().expect("at least one run");
     for r in runs {
         let (evals, secs) = (total.info.evaluations, total.trace.last().map_or(0.0, |t| t.seconds));
-        total.trace.extend(r.trace.iter().map(|t| OptIter { evaluations: t.evaluations + evals, seconds: t.seconds + secs, ..*t }));
-        let info = OptInfo { iterations: total.info.iterations + r.info.iterations, evaluations: evals + r.info.evaluations, ..r.info };
+        total.trace.extend(r.trace.iter().map(|t| OptIter {
+            evaluations: t.evaluations + evals,
+            seconds: t.seconds + secs,
+            ..*t
+        }));
+        let info = OptInfo {
+            iterations: total.info.iterations + r.info.iterations,
+            evaluations: evals + r.info.evaluations,
+            ..r.info
+        };
         total = OptResult { x: r.x, info, trace: total.trace };
     }
     (total, stages)
@@ -511,7 +519,12 @@ mod tests {
         let g = fit(data, &scg_config, |_| ()).unwrap();
         eprintln!("SCG: {:?}", g.info);
         assert_eq!(g.info.reason, StopReason::Converged);
-        assert!((g.last.value - f.last.value).abs() < 0.05 * f.last.value.abs(), "{} vs {}", g.last.value, f.last.value);
+        assert!(
+            (g.last.value - f.last.value).abs() < 0.05 * f.last.value.abs(),
+            "{} vs {}",
+            g.last.value,
+            f.last.value
+        );
     }
 
     /// A fit that cannot converge within the cap (a connectivity weight 10⁶ times the
