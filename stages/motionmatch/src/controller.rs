@@ -268,3 +268,163 @@ pub fn transition(
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::two_sines;
+
+    fn request(start: usize, target: u32, first_search: usize, frames: usize) -> TransitionRequest {
+        TransitionRequest {
+            start,
+            target,
+            first_search,
+            frames,
+        }
+    }
+
+    /// The controller reaches label 1 at the first search (output frame `first_search`),
+    /// jumping to the phase-matched frame (start + 1 + 120 at the search, so the output is
+    /// frame 131 + 1), and then plays label 1 on without further jumps.
+    #[test]
+    fn reaches_the_target_at_the_first_search() {
+        let (db, feats) = two_sines(1.0, 24);
+        let s = ControllerSettings::default();
+        let out = transition(&db, &feats, &request(10, 1, 1, 40), &s).unwrap();
+        assert_eq!(out.latency, Some(1));
+        assert_eq!(out.frames[..3], [11, 132, 133]);
+        assert_eq!(out.labels[0], 0);
+        assert!(out.labels[1..].iter().all(|&l| l == 1));
+        assert_eq!(out.switches.iter().filter(|&&b| b).count(), 1);
+        assert!(out.switches[1]);
+        // Requesting the label already playing never jumps.
+        let same = transition(&db, &feats, &request(10, 0, 0, 40), &s).unwrap();
+        assert_eq!(same.latency, Some(0));
+        assert_eq!(same.frames, (11..51).collect::<Vec<_>>());
+    }
+
+    /// Latency is set by the search cadence: with searches every c frames from output frame
+    /// 0, a request after r frames is answered at the next multiple of c, i.e. latency
+    /// (⌈r/c⌉·c − r) frames: c = round(0.1·24) = 2, r = 5 → 1; c = round(0.25·24) = 6,
+    /// r = 7 → 5.
+    #[test]
+    fn latency_follows_the_search_cadence() {
+        let (db, feats) = two_sines(1.0, 24);
+        for (interval, r, expected) in [(0.1, 5, 1), (0.25, 7, 5), (0.25, 6, 0)] {
+            let s = ControllerSettings {
+                search_interval: interval,
+                ..ControllerSettings::default()
+            };
+            let mut c = Controller::new(&db, &feats, 10, 0, 0, &s).unwrap();
+            for _ in 0..r {
+                assert_eq!(c.step().unwrap().label, 0);
+            }
+            c.set_target(1).unwrap();
+            let latency = (0..20).position(|_| c.step().unwrap().label == 1);
+            assert_eq!(latency, Some(expected), "interval {interval}, request after {r}");
+        }
+    }
+
+    /// The end of the playing segment forces a search before the timer: start 115 of a
+    /// segment ending at 119 reaches label 1 at output frame 4 although the first scheduled
+    /// search is at 10.
+    #[test]
+    fn segment_end_forces_a_search() {
+        let (db, feats) = two_sines(1.0, 24);
+        let out = transition(&db, &feats, &request(115, 1, 10, 20), &ControllerSettings::default())
+            .unwrap();
+        assert_eq!(out.latency, Some(4));
+        assert_eq!(out.frames[3], 119);
+        // At the end of label 1's segment playback jumps within label 1 and goes on.
+        let out = transition(&db, &feats, &request(230, 1, 0, 30), &ControllerSettings::default())
+            .unwrap();
+        assert_eq!(out.frames[8], 239);
+        assert!(out.switches[9] && out.labels.iter().all(|&l| l == 1));
+    }
+
+    /// Timeout: a first search beyond the frames played leaves the target unreached.
+    #[test]
+    fn unreached_within_the_frames_is_none() {
+        let (db, feats) = two_sines(1.0, 24);
+        let out = transition(&db, &feats, &request(10, 1, 50, 20), &ControllerSettings::default())
+            .unwrap();
+        assert_eq!((out.latency, out.len()), (None, 20));
+    }
+
+    /// Jump of control 2 (0 in label 0, `gap` in label 1) at the switch frame, and the
+    /// largest per-frame change over the 10 frames after it.
+    fn switch_jump(fps: u32, halflife: f64) -> (f64, f64) {
+        let (db, feats) = two_sines(2.0, fps);
+        let s = ControllerSettings {
+            halflife,
+            ..ControllerSettings::default()
+        };
+        let out = transition(&db, &feats, &request(fps as usize, 1, 1, 30), &s).unwrap();
+        assert!(out.switches[1]);
+        let x: Vec<f64> = (0..out.len()).map(|k| out.row(k)[2]).collect();
+        let after = x[1..12].windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max);
+        ((x[1] - x[0]).abs(), after)
+    }
+
+    /// §7.6 (d): inertialized output is continuous across the switch. At 24 fps the jump is
+    /// a small fraction of the gap and smaller than the output's own later per-frame
+    /// changes; it shrinks as O(Δt²) with the frame rate (C¹: 24 → 96 fps divides it by
+    /// ≈ 12; a velocity kink would give ≈ 4). Without inertialization (half-life 0) the
+    /// jump is the whole gap and does not shrink, so the test can fail.
+    #[test]
+    fn inertialized_switch_is_continuous() {
+        let (j24, after24) = switch_jump(24, 0.1);
+        let (j96, _) = switch_jump(96, 0.1);
+        assert!(j24 < 0.15 * 2.0, "jump {j24}");
+        assert!(j24 < after24, "jump {j24} vs later changes {after24}");
+        assert!(j24 / j96 > 8.0, "order: {j24} / {j96}");
+        let (h24, after) = switch_jump(24, 0.0);
+        let (h96, _) = switch_jump(96, 0.0);
+        assert!((h24 - 2.0).abs() < 1e-12 && (h96 - 2.0).abs() < 1e-12);
+        assert!(h24 > after);
+    }
+
+    #[test]
+    fn bad_requests_are_errors() {
+        let (db, feats) = two_sines(1.0, 24);
+        let s = ControllerSettings::default();
+        assert!(matches!(
+            transition(&db, &feats, &request(10, 7, 0, 5), &s),
+            Err(MatchError::NoSearchableFrames { label: 7, needed: 12 })
+        ));
+        assert!(matches!(
+            transition(&db, &feats, &request(240, 1, 0, 5), &s),
+            Err(MatchError::FrameOutOfRange { frame: 240, .. })
+        ));
+        let bad = ControllerSettings {
+            search_interval: 0.0,
+            ..s
+        };
+        assert!(matches!(transition(&db, &feats, &request(0, 1, 0, 5), &bad), Err(MatchError::Param { .. })));
+        let bad = ControllerSettings {
+            halflife: f64::NAN,
+            ..s
+        };
+        assert!(matches!(transition(&db, &feats, &request(0, 1, 0, 5), &bad), Err(MatchError::Param { .. })));
+        let (other, _) = two_sines(1.0, 12);
+        assert!(matches!(
+            transition(&other, &feats, &request(0, 1, 0, 5), &s),
+            Err(MatchError::Mismatch { .. })
+        ));
+        // A label whose only segment is too short to have a searchable frame.
+        let z = vec![0.0; 30];
+        let labels: Vec<u32> = (0..30).map(|t| u32::from(t >= 25)).collect();
+        let db = Database::new(z.clone(), 1, labels.clone(), &labels, 24.0).unwrap();
+        let feats = FeatureDb::build(&db, &z, 1, &crate::FeatureParams::default()).unwrap();
+        let mut c = Controller::new(&db, &feats, 0, 0, 0, &s).unwrap();
+        assert!(matches!(c.set_target(1), Err(MatchError::NoSearchableFrames { label: 1, .. })));
+        // Every candidate excluded at a segment end: a dead end, not a panic.
+        let s = ControllerSettings {
+            exclude_radius: Some(100),
+            ..s
+        };
+        let mut c = Controller::new(&db, &feats, 10, 0, 100, &s).unwrap();
+        let err = (0..20).map(|_| c.step()).find(Result::is_err);
+        assert!(matches!(err, Some(Err(MatchError::DeadEnd { frame: 24, label: 0 }))));
+    }
+}

@@ -32,19 +32,20 @@ pub(crate) fn random_walk(n: usize, q: usize, seed: u64) -> (Database, FeatureDb
     (db, feats)
 }
 
-/// Two labels as sine curves at 24 fps, C = q = 2 with $y = z$: label 0 (frames 0..120,
-/// one segment) $z = (\sin\omega t, \cos\omega t)$; label 1 (frames 120..240) the same
-/// curve shifted by `gap` in the first control. $\omega = 2\pi/48$ per frame.
-pub(crate) fn two_sines(gap: f64) -> (Database, FeatureDb) {
-    let w = std::f64::consts::TAU / 48.0;
+/// Two labels as sine curves of period 2 s, 5 s each, C = q = 3 with $y = z$: label 0
+/// (one segment) $z = (\sin\omega t, \cos\omega t, 0)$, label 1 (the next segment) the
+/// same curve with third control `gap`. Frame $t$ of label 0 and frame $t + 5\,\text{fps}$
+/// of label 1 have the same phase, so their features differ only by the constant `gap`.
+pub(crate) fn two_sines(gap: f64, fps: u32) -> (Database, FeatureDb) {
+    let len = 5 * fps;
+    let w = std::f64::consts::PI / f64::from(fps);
     let mut rows = Vec::new();
-    for t in 0..240u32 {
-        let s = f64::from(t % 120) * w;
-        let shift = if t < 120 { 0.0 } else { gap };
-        rows.extend_from_slice(&[s.sin() + shift, s.cos()]);
+    for t in 0..2 * len {
+        let s = f64::from(t % len) * w;
+        rows.extend_from_slice(&[s.sin(), s.cos(), if t < len { 0.0 } else { gap }]);
     }
-    let labels: Vec<u32> = (0..240).map(|t| u32::from(t >= 120)).collect();
-    let db = Database::new(rows.clone(), 2, labels.clone(), &labels, 24.0).unwrap();
-    let feats = FeatureDb::build(&db, &rows, 2, &FeatureParams::default()).unwrap();
+    let labels: Vec<u32> = (0..2 * len).map(|t| u32::from(t >= len)).collect();
+    let db = Database::new(rows.clone(), 3, labels.clone(), &labels, f64::from(fps)).unwrap();
+    let feats = FeatureDb::build(&db, &rows, 3, &FeatureParams::default()).unwrap();
     (db, feats)
 }
