@@ -102,3 +102,86 @@ pub fn crossfade(
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::two_sines;
+    use approx::assert_abs_diff_eq;
+
+    /// One control. Label 0: frames 0..=5, z = 0..5. Label 1: frames 6..=13,
+    /// z = 10, 2.2, 7, 3.1, 9, 9, 8, 3.0. With k = 2 candidates are 6..=11 (frame 13's
+    /// 3.0 is nearer to z = 3 but has no continuation).
+    fn toy() -> Database {
+        let z = vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 10.0, 2.2, 7.0, 3.1, 9.0, 9.0, 8.0, 3.0];
+        let labels: Vec<u32> = (0..14).map(|t| u32::from(t >= 6)).collect();
+        Database::new(z, 1, labels.clone(), &labels, 24.0).unwrap()
+    }
+
+    /// The nearest candidate is chosen, and the output is the hand-computed blend:
+    /// α(0) = 2/8 − 3/4 + 1 = ½ for k = 2, so frame 0 = ½·z₄ + ½·z₁₀ = 6.5, frame 1 = z₁₁
+    /// (α(1) = 0), then z₁₂, z₁₃; B's segment ends, and a new crossfade from the held
+    /// frame 13 (3.0) picks frame 9 again: ½·3.0 + ½·z₁₀ = 6.
+    #[test]
+    fn nearest_frame_and_hand_computed_blend() {
+        let db = toy();
+        let cand = crossfade_candidates(&db, 1, 2);
+        assert_eq!(cand.iter().collect::<Vec<_>>(), (6..=11).collect::<Vec<_>>());
+        let m = nearest_pose(&db, db.row(3), &cand).unwrap().unwrap();
+        assert_eq!(m.frame, 9);
+        assert_abs_diff_eq!(m.cost, 0.01, epsilon = 1e-12);
+        let out = crossfade(&db, 3, 1, 2, 6).unwrap();
+        assert_eq!(out.z, [6.5, 9.0, 8.0, 3.0, 6.0, 9.0]);
+        assert_eq!(out.frames, [10, 11, 12, 13, 10, 11]);
+        assert_eq!(out.switches, [true, false, false, false, true, false]);
+        assert_eq!(out.source_weight, [0.5, 0.0, 0.0, 0.0, 0.5, 0.0]);
+        assert_eq!(out.latency, Some(0));
+        // k = 0 is a hard cut to the frame after the nearest one.
+        assert_eq!(crossfade(&db, 3, 1, 0, 2).unwrap().z, [9.0, 9.0]);
+    }
+
+    /// On the sines (label 1 = label 0 + constant in control 2), from frame s = 30 the
+    /// nearest label-1 frame is the phase-matched 150; output frame p of a 12-frame blend is
+    /// α(p)·z₃₁₊ₚ + (1 − α(p))·z₁₅₁₊ₚ with α written out here; the first output frame is
+    /// continuous with the last one before the request.
+    #[test]
+    fn sine_blend_is_continuous() {
+        let (db, _) = two_sines(1.0, 24);
+        let (s, k) = (30, 12);
+        let out = crossfade(&db, s, 1, k, 20).unwrap();
+        assert_eq!(out.frames[0], 151);
+        for p in [0, 5, 11] {
+            let u = (p as f64 + 1.0) / k as f64;
+            let alpha = 2.0 * u.powi(3) - 3.0 * u.powi(2) + 1.0;
+            for c in 0..3 {
+                let want = alpha * db.row(s + 1 + p)[c] + (1.0 - alpha) * db.row(151 + p)[c];
+                assert_abs_diff_eq!(out.row(p)[c], want, epsilon = 1e-12);
+            }
+        }
+        let dist = |a: &[f64], b: &[f64]| -> f64 {
+            a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
+        };
+        let step = dist(db.row(s + 1), db.row(s));
+        assert!(dist(out.row(0), db.row(s)) < 1.2 * step);
+        // Every step of the blend stays small (the gap of 1 is spread over 12 frames).
+        assert!((1..20).all(|k| dist(out.row(k), out.row(k - 1)) < 0.25));
+    }
+
+    #[test]
+    fn bad_input_is_an_error() {
+        let db = toy();
+        assert!(matches!(
+            crossfade(&db, 3, 1, 8, 5),
+            Err(MatchError::NoSearchableFrames { label: 1, needed: 8 })
+        ));
+        assert!(matches!(crossfade(&db, 3, 9, 2, 5), Err(MatchError::NoSearchableFrames { .. })));
+        assert!(matches!(crossfade(&db, 14, 1, 2, 5), Err(MatchError::FrameOutOfRange { .. })));
+        let cand = crossfade_candidates(&db, 1, 2);
+        assert!(matches!(nearest_pose(&db, &[0.0, 1.0], &cand), Err(MatchError::Length { .. })));
+        assert!(matches!(nearest_pose(&db, &[f64::NAN], &cand), Err(MatchError::NonFinite { .. })));
+        assert!(matches!(
+            nearest_pose(&db, &[0.0], &FrameSet::empty(3)),
+            Err(MatchError::Mismatch { .. })
+        ));
+    }
+}
