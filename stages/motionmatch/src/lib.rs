@@ -49,3 +49,19 @@ pub use features::{FeatureDb, FeatureGroup, FeatureParams, GroupKind};
 pub use playback::Playback;
 pub use search::{Exclusion, Match};
 pub use spring::{decay_spring, spring_rate, Inertializer};
+
+#[cfg(test)]
+mod tests {
+    /// Models, settings and errors can cross threads (a stage may search in parallel).
+    #[test]
+    fn autotraits() {
+        fn check<T: Send + Sync + Unpin>() {}
+        check::<crate::Database>();
+        check::<crate::FeatureDb>();
+        check::<crate::FrameSet>();
+        check::<crate::Controller<'_>>();
+        check::<crate::Playback>();
+        check::<crate::MatchError>();
+        check::<crate::Inertializer>();
+    }
+}

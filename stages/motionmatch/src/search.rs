@@ -6,12 +6,14 @@
 //! - [`FeatureDb::search`]: Holden's acceleration. Axis-aligned boxes of the features of
 //!   the searchable frames in aligned blocks of 64 and 16 consecutive frames; a block is
 //!   skipped when its lower bound $\sum_j(\hat q_j - \operatorname{clamp}(\hat q_j, lo_j,
-//!   hi_j))^2$ reaches the best cost so far, a candidate's sum stops once it does.
+//!   hi_j))^2$ exceeds the best cost so far, a candidate's sum stops once it does. Unlike
+//!   the reference, the 64-blocks are visited best bound first, so a good match is found
+//!   early and the rest is cut off at once.
 //!
-//! Both visit frames in increasing order and keep a candidate only if its cost is strictly
-//! lower, so both return the *lowest* frame of minimal cost, with the same cost bit for bit:
-//! sums run over columns in the same order, and the box bound is termwise ≤ the cost in
-//! floating point too (rounding is monotone), so no minimiser is ever pruned.
+//! Both return the *lowest* frame of minimal cost, with the same cost bit for bit: sums run
+//! over columns in the same order, the box bound is termwise ≤ the cost in floating point
+//! too (rounding is monotone), and pruning is strict (`>`), so no minimiser — not even a
+//! tied one — is ever cut off.
 
 use crate::database::FrameSet;
 use crate::error::{check_finite, check_len, MatchError, Result};
@@ -98,27 +100,27 @@ impl Blocks {
     }
 }
 
-/// $\sum_j(q_j - f_j)^2$, stopping once the partial sum reaches `stop`.
+/// $\sum_j(q_j - f_j)^2$, stopping once the partial sum exceeds `stop`.
 #[inline]
 fn cost_until(query: &[f64], row: &[f64], stop: f64) -> f64 {
     let mut sum = 0.0;
     for (q, f) in query.iter().zip(row) {
         sum += (q - f) * (q - f);
-        if sum >= stop {
+        if sum > stop {
             break;
         }
     }
     sum
 }
 
-/// Lower bound of the cost over a box, stopping once it reaches `stop`.
+/// Lower bound of the cost over a box, stopping once it exceeds `stop`.
 #[inline]
 fn box_bound(query: &[f64], lo: &[f64], hi: &[f64], stop: f64) -> f64 {
     let mut sum = 0.0;
     for ((q, l), h) in query.iter().zip(lo).zip(hi) {
         let d = q - q.clamp(*l, *h);
         sum += d * d;
-        if sum >= stop {
+        if sum > stop {
             break;
         }
     }
@@ -174,8 +176,13 @@ impl FeatureDb {
         Ok(best)
     }
 
-    /// Same answer as [`FeatureDb::search_brute`] (frame and cost), faster: block bounds
-    /// and early-out sums prune most candidates.
+    /// Same answer as [`FeatureDb::search_brute`] (frame and cost), faster.
+    ///
+    /// Branch and bound: the 64-frame blocks holding candidates are visited in increasing
+    /// order of their box bound, stopping at the first bound above the best cost; inside a
+    /// block, each 16-frame block is skipped if its bound is above the best cost, and each
+    /// candidate's sum stops once above it. Ties go to the lower frame, as in the brute
+    /// force, so the answer does not depend on the visiting order.
     ///
     /// # Errors
     /// As [`FeatureDb::search_brute`].
@@ -188,17 +195,25 @@ impl FeatureDb {
         self.check_search(query, allowed)?;
         let d = self.dim;
         let b = &self.blocks;
+        let mut order: Vec<(f64, usize, u64)> = (0..allowed.words().len())
+            .filter_map(|w| {
+                let word = self.candidates(allowed, exclude, w);
+                (word != 0).then(|| {
+                    let (lo, hi) = (&b.large_lo[w * d..(w + 1) * d], &b.large_hi[w * d..(w + 1) * d]);
+                    (box_bound(query, lo, hi, f64::INFINITY), w, word)
+                })
+            })
+            .collect();
+        order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
         let mut best: Option<Match> = None;
         // Until a first candidate is kept nothing may be pruned (costs can be +∞).
         let stop = |best: Option<Match>| best.map_or(f64::INFINITY, |m| m.cost);
-        for w in 0..allowed.words().len() {
-            let word = self.candidates(allowed, exclude, w);
-            if word == 0 {
-                continue;
-            }
-            let (lo, hi) = (&b.large_lo[w * d..(w + 1) * d], &b.large_hi[w * d..(w + 1) * d]);
-            if best.is_some_and(|m| box_bound(query, lo, hi, m.cost) >= m.cost) {
-                continue;
+        let better = |best: Option<Match>, t: usize, cost: f64| {
+            best.is_none_or(|m| cost < m.cost || (cost == m.cost && t < m.frame))
+        };
+        for (bound, w, word) in order {
+            if bound > stop(best) {
+                break;
             }
             for s in 0..LARGE / SMALL {
                 let mut bits = (word >> (s * SMALL)) & ((1 << SMALL) - 1);
@@ -207,14 +222,14 @@ impl FeatureDb {
                 }
                 let sb = w * (LARGE / SMALL) + s;
                 let (lo, hi) = (&b.small_lo[sb * d..(sb + 1) * d], &b.small_hi[sb * d..(sb + 1) * d]);
-                if best.is_some_and(|m| box_bound(query, lo, hi, m.cost) >= m.cost) {
+                if box_bound(query, lo, hi, stop(best)) > stop(best) {
                     continue;
                 }
                 while bits != 0 {
                     let t = sb * SMALL + bits.trailing_zeros() as usize;
                     bits &= bits - 1;
                     let cost = cost_until(query, self.features(t), stop(best));
-                    if best.is_none_or(|m| cost < m.cost) {
+                    if better(best, t, cost) {
                         best = Some(Match { frame: t, cost });
                     }
                 }
@@ -291,6 +306,32 @@ mod tests {
             }
         }
         assert!(pruned_any);
+    }
+
+    /// Exact ties (three identical takes) go to the lowest allowed frame in both searches,
+    /// although the accelerated one visits blocks out of order.
+    #[test]
+    fn ties_go_to_the_lowest_frame() {
+        let (take, _) = random_walk(300, 3, 5);
+        let rows: Vec<f64> = take.controls().repeat(3);
+        let segments: Vec<u32> = (0..900).map(|t| t / 300).collect();
+        let db = Database::new(rows.clone(), 3, vec![0; 900], &segments, 24.0).unwrap();
+        let feats = FeatureDb::build(&db, &rows, 3, &FeatureParams::default()).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        for i in 0..200 {
+            let t = rng.gen_range(0..900);
+            let allowed = if i % 2 == 0 {
+                FrameSet::all(900)
+            } else {
+                FrameSet::from_predicate(900, |_| rng.gen_bool(0.5))
+            };
+            let fast = feats.search(feats.features(t), &allowed, None).unwrap();
+            let slow = feats.search_brute(feats.features(t), &allowed, None).unwrap();
+            assert_eq!(fast, slow);
+            if i % 2 == 0 && feats.searchable().contains(t) {
+                assert_eq!(fast.unwrap().frame, t % 300);
+            }
+        }
     }
 
     #[test]
