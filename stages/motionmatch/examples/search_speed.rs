@@ -10,6 +10,8 @@
 use reprise_motionmatch::{Database, FeatureDb, FeatureParams, FrameSet};
 use std::time::Instant;
 
+type Res<T> = Result<T, Box<dyn std::error::Error>>;
+
 /// A small deterministic generator (xorshift64*) so the example needs no dependency.
 struct Rng(u64);
 
@@ -19,19 +21,16 @@ impl Rng {
         self.0 ^= self.0 << 25;
         self.0 ^= self.0 >> 27;
         let bits = self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11;
-        #[allow(clippy::cast_precision_loss)] // 53 bits fit a double exactly
-        let u = bits as f64 / (1u64 << 53) as f64;
-        u
+        bits as f64 / (1u64 << 53) as f64
     }
 
     fn below(&mut self, n: usize) -> usize {
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, clippy::cast_precision_loss)]
         let i = (self.uniform() * n as f64) as usize;
         i.min(n - 1)
     }
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+fn main() -> Res<()> {
     let mut args = std::env::args().skip(1);
     let n: usize = args.next().map_or(Ok(4000), |a| a.parse())?;
     let q: usize = args.next().map_or(Ok(8), |a| a.parse())?;
@@ -68,7 +67,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             (query, i % sets.len())
         })
         .collect();
-    let time = |accelerated: bool| -> Result<(f64, Vec<Option<usize>>), Box<dyn std::error::Error>> {
+    let time = |accelerated: bool| -> Res<(f64, Vec<Option<usize>>)> {
         let start = Instant::now();
         let mut found = Vec::with_capacity(queries.len());
         for (query, s) in &queries {

@@ -49,11 +49,7 @@ pub struct ControllerSettings {
 
 impl Default for ControllerSettings {
     fn default() -> Self {
-        Self {
-            search_interval: 0.1,
-            halflife: 0.1,
-            exclude_radius: None,
-        }
+        Self { search_interval: 0.1, halflife: 0.1, exclude_radius: None }
     }
 }
 
@@ -61,7 +57,6 @@ impl ControllerSettings {
     /// Frames between searches: $\max(1, \operatorname{round}(\text{interval}\cdot\text{fps}))$.
     pub fn interval_frames(&self, fps: f64) -> usize {
         // A finite positive interval times fps; saturating cast of a rounded value.
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let c = (self.search_interval * fps).round() as usize;
         c.max(1)
     }
@@ -156,10 +151,7 @@ impl<'a> Controller<'a> {
     pub fn set_target(&mut self, target: u32) -> Result<()> {
         let allowed = self.feats.searchable_with_label(self.db, target)?;
         if allowed.is_empty() {
-            return Err(MatchError::NoSearchableFrames {
-                label: target,
-                needed: self.feats.continuation(),
-            });
+            return Err(MatchError::NoSearchableFrames { label: target, needed: self.feats.continuation() });
         }
         self.target = target;
         self.allowed = allowed;
@@ -211,12 +203,7 @@ impl<'a> Controller<'a> {
                         self.current = m.frame;
                         switched = true;
                     }
-                    None if at_end => {
-                        return Err(MatchError::DeadEnd {
-                            frame: cur,
-                            label: self.target,
-                        })
-                    }
+                    None if at_end => return Err(MatchError::DeadEnd { frame: cur, label: self.target }),
                     None => {}
                 }
             }
@@ -226,12 +213,7 @@ impl<'a> Controller<'a> {
         self.current += 1;
         self.inert.update(1.0 / db.fps());
         self.inert.apply(db.row(self.current), &mut self.out);
-        Ok(StepInfo {
-            frame: self.current,
-            label: db.label(self.current),
-            switched,
-            best,
-        })
+        Ok(StepInfo { frame: self.current, label: db.label(self.current), switched, best })
     }
 }
 
@@ -275,12 +257,7 @@ mod tests {
     use crate::testutil::two_sines;
 
     fn request(start: usize, target: u32, first_search: usize, frames: usize) -> TransitionRequest {
-        TransitionRequest {
-            start,
-            target,
-            first_search,
-            frames,
-        }
+        TransitionRequest { start, target, first_search, frames }
     }
 
     /// The controller reaches label 1 at the first search (output frame `first_search`),
@@ -311,10 +288,7 @@ mod tests {
     fn latency_follows_the_search_cadence() {
         let (db, feats) = two_sines(1.0, 24);
         for (interval, r, expected) in [(0.1, 5, 1), (0.25, 7, 5), (0.25, 6, 0)] {
-            let s = ControllerSettings {
-                search_interval: interval,
-                ..ControllerSettings::default()
-            };
+            let s = ControllerSettings { search_interval: interval, ..ControllerSettings::default() };
             let mut c = Controller::new(&db, &feats, 10, 0, 0, &s).unwrap();
             for _ in 0..r {
                 assert_eq!(c.step().unwrap().label, 0);
@@ -331,13 +305,11 @@ mod tests {
     #[test]
     fn segment_end_forces_a_search() {
         let (db, feats) = two_sines(1.0, 24);
-        let out = transition(&db, &feats, &request(115, 1, 10, 20), &ControllerSettings::default())
-            .unwrap();
+        let out = transition(&db, &feats, &request(115, 1, 10, 20), &ControllerSettings::default()).unwrap();
         assert_eq!(out.latency, Some(4));
         assert_eq!(out.frames[3], 119);
         // At the end of label 1's segment playback jumps within label 1 and goes on.
-        let out = transition(&db, &feats, &request(230, 1, 0, 30), &ControllerSettings::default())
-            .unwrap();
+        let out = transition(&db, &feats, &request(230, 1, 0, 30), &ControllerSettings::default()).unwrap();
         assert_eq!(out.frames[8], 239);
         assert!(out.switches[9] && out.labels.iter().all(|&l| l == 1));
     }
@@ -346,8 +318,7 @@ mod tests {
     #[test]
     fn unreached_within_the_frames_is_none() {
         let (db, feats) = two_sines(1.0, 24);
-        let out = transition(&db, &feats, &request(10, 1, 50, 20), &ControllerSettings::default())
-            .unwrap();
+        let out = transition(&db, &feats, &request(10, 1, 50, 20), &ControllerSettings::default()).unwrap();
         assert_eq!((out.latency, out.len()), (None, 20));
     }
 
@@ -355,10 +326,7 @@ mod tests {
     /// largest per-frame change over the 10 frames after it.
     fn switch_jump(fps: u32, halflife: f64) -> (f64, f64) {
         let (db, feats) = two_sines(2.0, fps);
-        let s = ControllerSettings {
-            halflife,
-            ..ControllerSettings::default()
-        };
+        let s = ControllerSettings { halflife, ..ControllerSettings::default() };
         let out = transition(&db, &feats, &request(fps as usize, 1, 1, 30), &s).unwrap();
         assert!(out.switches[1]);
         let x: Vec<f64> = (0..out.len()).map(|k| out.row(k)[2]).collect();
@@ -396,21 +364,12 @@ mod tests {
             transition(&db, &feats, &request(240, 1, 0, 5), &s),
             Err(MatchError::FrameOutOfRange { frame: 240, .. })
         ));
-        let bad = ControllerSettings {
-            search_interval: 0.0,
-            ..s
-        };
+        let bad = ControllerSettings { search_interval: 0.0, ..s };
         assert!(matches!(transition(&db, &feats, &request(0, 1, 0, 5), &bad), Err(MatchError::Param { .. })));
-        let bad = ControllerSettings {
-            halflife: f64::NAN,
-            ..s
-        };
+        let bad = ControllerSettings { halflife: f64::NAN, ..s };
         assert!(matches!(transition(&db, &feats, &request(0, 1, 0, 5), &bad), Err(MatchError::Param { .. })));
         let (other, _) = two_sines(1.0, 12);
-        assert!(matches!(
-            transition(&other, &feats, &request(0, 1, 0, 5), &s),
-            Err(MatchError::Mismatch { .. })
-        ));
+        assert!(matches!(transition(&other, &feats, &request(0, 1, 0, 5), &s), Err(MatchError::Mismatch { .. })));
         // A label whose only segment is too short to have a searchable frame.
         let z = vec![0.0; 30];
         let labels: Vec<u32> = (0..30).map(|t| u32::from(t >= 25)).collect();
@@ -419,10 +378,7 @@ mod tests {
         let mut c = Controller::new(&db, &feats, 0, 0, 0, &s).unwrap();
         assert!(matches!(c.set_target(1), Err(MatchError::NoSearchableFrames { label: 1, .. })));
         // Every candidate excluded at a segment end: a dead end, not a panic.
-        let s = ControllerSettings {
-            exclude_radius: Some(100),
-            ..s
-        };
+        let s = ControllerSettings { exclude_radius: Some(100), ..s };
         let mut c = Controller::new(&db, &feats, 10, 0, 100, &s).unwrap();
         let err = (0..20).map(|_| c.step()).find(Result::is_err);
         assert!(matches!(err, Some(Err(MatchError::DeadEnd { frame: 24, label: 0 }))));

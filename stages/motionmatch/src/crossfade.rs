@@ -57,21 +57,12 @@ pub fn nearest_pose(db: &Database, pose: &[f64], candidates: &FrameSet) -> Resul
 /// # Errors
 /// [`MatchError::FrameOutOfRange`], [`MatchError::NoSearchableFrames`] if `target` has no
 /// frame with `blend_frames` frames of continuation.
-pub fn crossfade(
-    db: &Database,
-    start: usize,
-    target: u32,
-    blend_frames: usize,
-    frames: usize,
-) -> Result<Playback> {
+pub fn crossfade(db: &Database, start: usize, target: u32, blend_frames: usize, frames: usize) -> Result<Playback> {
     db.check_frame(start)?;
     let candidates = crossfade_candidates(db, target, blend_frames);
     let pick = |from: usize| -> Result<usize> {
         let m = nearest_pose(db, db.row(from), &candidates)?;
-        m.map(|m| m.frame + 1).ok_or(MatchError::NoSearchableFrames {
-            label: target,
-            needed: blend_frames.max(1),
-        })
+        m.map(|m| m.frame + 1).ok_or(MatchError::NoSearchableFrames { label: target, needed: blend_frames.max(1) })
     };
     let mut out = Playback::new(db.dim(), target, frames);
     let mut row = vec![0.0; db.dim()];
@@ -82,7 +73,6 @@ pub fn crossfade(
             if db.has_next(a) {
                 a += 1;
             }
-            #[allow(clippy::cast_precision_loss)] // p < blend_frames, a frame count
             let alpha = blend_weight(p as f64, blend_frames);
             for ((o, za), zb) in row.iter_mut().zip(db.row(a)).zip(db.row(b)) {
                 *o = alpha * za + (1.0 - alpha) * zb;
@@ -158,9 +148,8 @@ mod tests {
                 assert_abs_diff_eq!(out.row(p)[c], want, epsilon = 1e-12);
             }
         }
-        let dist = |a: &[f64], b: &[f64]| -> f64 {
-            a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
-        };
+        let dist =
+            |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt() };
         let step = dist(db.row(s + 1), db.row(s));
         assert!(dist(out.row(0), db.row(s)) < 1.2 * step);
         // Every step of the blend stays small (the gap of 1 is spread over 12 frames).
@@ -170,18 +159,12 @@ mod tests {
     #[test]
     fn bad_input_is_an_error() {
         let db = toy();
-        assert!(matches!(
-            crossfade(&db, 3, 1, 8, 5),
-            Err(MatchError::NoSearchableFrames { label: 1, needed: 8 })
-        ));
+        assert!(matches!(crossfade(&db, 3, 1, 8, 5), Err(MatchError::NoSearchableFrames { label: 1, needed: 8 })));
         assert!(matches!(crossfade(&db, 3, 9, 2, 5), Err(MatchError::NoSearchableFrames { .. })));
         assert!(matches!(crossfade(&db, 14, 1, 2, 5), Err(MatchError::FrameOutOfRange { .. })));
         let cand = crossfade_candidates(&db, 1, 2);
         assert!(matches!(nearest_pose(&db, &[0.0, 1.0], &cand), Err(MatchError::Length { .. })));
         assert!(matches!(nearest_pose(&db, &[f64::NAN], &cand), Err(MatchError::NonFinite { .. })));
-        assert!(matches!(
-            nearest_pose(&db, &[0.0], &FrameSet::empty(3)),
-            Err(MatchError::Mismatch { .. })
-        ));
+        assert!(matches!(nearest_pose(&db, &[0.0], &FrameSet::empty(3)), Err(MatchError::Mismatch { .. })));
     }
 }

@@ -30,20 +30,14 @@ impl Database {
     /// [`MatchError::ZeroDimension`], [`MatchError::EmptyDatabase`],
     /// [`MatchError::Length`], [`MatchError::NonFinite`], [`MatchError::Fps`],
     /// [`MatchError::SegmentNotContiguous`].
-    pub fn new(
-        z: Vec<f64>,
-        dim: usize,
-        labels: Vec<u32>,
-        segments: &[u32],
-        fps: f64,
-    ) -> Result<Self> {
+    pub fn new(z: Vec<f64>, dim: usize, labels: Vec<u32>, segments: &[u32], fps: f64) -> Result<Self> {
         if dim == 0 {
             return Err(MatchError::ZeroDimension { what: "controls" });
         }
         if !(fps.is_finite() && fps > 0.0) {
             return Err(MatchError::Fps(fps));
         }
-        if z.len() % dim != 0 {
+        if !z.len().is_multiple_of(dim) {
             return Err(MatchError::Length {
                 what: "controls",
                 expected: z.len().div_ceil(dim) * dim,
@@ -58,13 +52,7 @@ impl Database {
         check_len("segments", n, segments.len())?;
         check_finite("controls", &z, dim)?;
         let bounds = segment_bounds(segments)?;
-        Ok(Self {
-            z,
-            dim,
-            labels,
-            bounds,
-            fps,
-        })
+        Ok(Self { z, dim, labels, bounds, fps })
     }
 
     /// Number of frames $n$.
@@ -155,10 +143,7 @@ impl Database {
         if t < self.len() {
             Ok(())
         } else {
-            Err(MatchError::FrameOutOfRange {
-                frame: t,
-                n: self.len(),
-            })
+            Err(MatchError::FrameOutOfRange { frame: t, n: self.len() })
         }
     }
 }
@@ -171,10 +156,7 @@ fn segment_bounds(segments: &[u32]) -> Result<Vec<(usize, usize)>> {
     for t in 1..=segments.len() {
         if t == segments.len() || segments[t] != segments[start] {
             if !seen.insert(segments[start]) {
-                return Err(MatchError::SegmentNotContiguous {
-                    frame: start,
-                    segment: segments[start],
-                });
+                return Err(MatchError::SegmentNotContiguous { frame: start, segment: segments[start] });
             }
             bounds.extend(std::iter::repeat_n((start, t - 1), t - start));
             start = t;
@@ -194,10 +176,7 @@ pub struct FrameSet {
 impl FrameSet {
     /// The empty set over `n` frames.
     pub fn empty(n: usize) -> Self {
-        Self {
-            n,
-            words: vec![0; n.div_ceil(64)],
-        }
+        Self { n, words: vec![0; n.div_ceil(64)] }
     }
 
     /// Every frame of `n`.
@@ -268,10 +247,7 @@ impl FrameSet {
 
     /// `self ∩ other` (same universe).
     pub fn intersection(&self, other: &Self) -> Self {
-        Self {
-            n: self.n,
-            words: self.words.iter().zip(&other.words).map(|(a, b)| a & b).collect(),
-        }
+        Self { n: self.n, words: self.words.iter().zip(&other.words).map(|(a, b)| a & b).collect() }
     }
 
     /// The frames in increasing order.
@@ -300,16 +276,12 @@ mod tests {
 
     #[test]
     fn segments_and_bad_input() {
-        let db = Database::new(vec![0.0; 10], 2, vec![0, 0, 1, 1, 1], &[7, 7, 3, 3, 3], 24.0)
-            .unwrap();
+        let db = Database::new(vec![0.0; 10], 2, vec![0, 0, 1, 1, 1], &[7, 7, 3, 3, 3], 24.0).unwrap();
         assert_eq!((db.segment_start(3), db.segment_end(3)), (2, 4));
         assert!(db.has_next(0) && !db.has_next(1) && !db.has_next(4));
         let err = Database::new(vec![0.0; 6], 2, vec![0; 3], &[1, 2, 1], 24.0);
         assert!(matches!(err, Err(MatchError::SegmentNotContiguous { frame: 2, segment: 1 })));
-        assert!(matches!(
-            Database::new(vec![], 2, vec![], &[], 24.0),
-            Err(MatchError::EmptyDatabase)
-        ));
+        assert!(matches!(Database::new(vec![], 2, vec![], &[], 24.0), Err(MatchError::EmptyDatabase)));
         assert!(matches!(
             Database::new(vec![0.0; 5], 2, vec![0; 2], &[0; 2], 24.0),
             Err(MatchError::Length { what: "controls", .. })
@@ -324,10 +296,7 @@ mod tests {
             Database::new(z, 2, vec![0; 2], &[0; 2], 24.0),
             Err(MatchError::NonFinite { frame: 1, column: 1, .. })
         ));
-        assert!(matches!(
-            Database::new(vec![0.0; 4], 2, vec![0; 2], &[0; 2], 0.0),
-            Err(MatchError::Fps(_))
-        ));
+        assert!(matches!(Database::new(vec![0.0; 4], 2, vec![0; 2], &[0; 2], 0.0), Err(MatchError::Fps(_))));
         assert!(matches!(
             Database::new(vec![0.0; 4], 0, vec![0; 2], &[0; 2], 24.0),
             Err(MatchError::ZeroDimension { .. })

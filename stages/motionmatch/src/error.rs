@@ -109,12 +109,7 @@ pub type Result<T> = std::result::Result<T, MatchError>;
 pub(crate) fn check_finite(what: &'static str, values: &[f64], dim: usize) -> Result<()> {
     match values.iter().position(|v| !v.is_finite()) {
         None => Ok(()),
-        Some(i) => Err(MatchError::NonFinite {
-            what,
-            frame: i / dim,
-            column: i % dim,
-            value: values[i],
-        }),
+        Some(i) => Err(MatchError::NonFinite { what, frame: i / dim, column: i % dim, value: values[i] }),
     }
 }
 
@@ -123,10 +118,6 @@ pub(crate) fn check_len(what: &'static str, expected: usize, actual: usize) -> R
     if expected == actual {
         Ok(())
     } else {
-        Err(MatchError::Length {
-            what,
-            expected,
-            actual,
-        })
+        Err(MatchError::Length { what, expected, actual })
     }
 }

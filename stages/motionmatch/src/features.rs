@@ -75,12 +75,7 @@ pub struct FeatureParams {
 
 impl Default for FeatureParams {
     fn default() -> Self {
-        Self {
-            offsets: vec![4, 8, 12],
-            current_weight: 1.0,
-            future_weight: 1.0,
-            velocity_weight: 1.0,
-        }
+        Self { offsets: vec![4, 8, 12], current_weight: 1.0, future_weight: 1.0, velocity_weight: 1.0 }
     }
 }
 
@@ -110,21 +105,11 @@ impl FeatureParams {
     /// The groups in column order, scales not yet set.
     fn groups(&self, q: usize) -> Vec<FeatureGroup> {
         let kinds = std::iter::once((GroupKind::Current, self.current_weight))
-            .chain(
-                self.offsets
-                    .iter()
-                    .map(|&offset| (GroupKind::Future { offset }, self.future_weight)),
-            )
+            .chain(self.offsets.iter().map(|&offset| (GroupKind::Future { offset }, self.future_weight)))
             .chain(std::iter::once((GroupKind::Velocity, self.velocity_weight)));
         kinds
             .enumerate()
-            .map(|(g, (kind, weight))| FeatureGroup {
-                kind,
-                start: g * q,
-                len: q,
-                weight,
-                scale: 1.0,
-            })
+            .map(|(g, (kind, weight))| FeatureGroup { kind, start: g * q, len: q, weight, scale: 1.0 })
             .collect()
     }
 }
@@ -157,9 +142,7 @@ impl FeatureDb {
     pub fn build(db: &Database, y: &[f64], q: usize, params: &FeatureParams) -> Result<Self> {
         params.check()?;
         if q == 0 {
-            return Err(MatchError::ZeroDimension {
-                what: "coordinates",
-            });
+            return Err(MatchError::ZeroDimension { what: "coordinates" });
         }
         let n = db.len();
         check_len("coordinates", n * q, y.len())?;
@@ -184,17 +167,7 @@ impl FeatureDb {
         let continuation = params.offsets.iter().copied().max().unwrap_or(0).max(1);
         let searchable = FrameSet::from_predicate(n, |t| t + continuation <= db.segment_end(t));
         let blocks = Blocks::build(&features, dim, &searchable);
-        Ok(Self {
-            n,
-            dim,
-            groups,
-            mean,
-            col_scale,
-            features,
-            searchable,
-            continuation,
-            blocks,
-        })
+        Ok(Self { n, dim, groups, mean, col_scale, features, searchable, continuation, blocks })
     }
 
     /// Number of frames.
@@ -264,24 +237,13 @@ impl FeatureDb {
         if db.len() == self.n {
             Ok(())
         } else {
-            Err(MatchError::Mismatch {
-                what: "features",
-                expected: db.len(),
-                actual: self.n,
-            })
+            Err(MatchError::Mismatch { what: "features", expected: db.len(), actual: self.n })
         }
     }
 }
 
 /// Raw (unnormalised) features of frame `t` into `row`.
-fn raw_features_into(
-    db: &Database,
-    y: &[f64],
-    q: usize,
-    groups: &[FeatureGroup],
-    t: usize,
-    row: &mut [f64],
-) {
+fn raw_features_into(db: &Database, y: &[f64], q: usize, groups: &[FeatureGroup], t: usize, row: &mut [f64]) {
     let at = |s: usize| &y[s * q..(s + 1) * q];
     for g in groups {
         let out = &mut row[g.start..g.start + g.len];
@@ -340,12 +302,7 @@ mod tests {
         let db = Database::new(vec![0.0; 4], 1, vec![0; 4], &[0; 4], 2.0).unwrap();
         // y rows: (0, 0), (1, 10), (3, 10), (6, 40)
         let y = [0.0, 0.0, 1.0, 10.0, 3.0, 10.0, 6.0, 40.0];
-        let params = FeatureParams {
-            offsets: vec![1],
-            current_weight: 1.0,
-            future_weight: 2.0,
-            velocity_weight: 0.5,
-        };
+        let params = FeatureParams { offsets: vec![1], current_weight: 1.0, future_weight: 2.0, velocity_weight: 0.5 };
         let f = FeatureDb::build(&db, &y, 2, &params).unwrap();
         // current column 0: 0,1,3,6 → mean 2.5, var (6.25+2.25+0.25+12.25)/4 = 5.25
         // current column 1: 0,10,10,40 → mean 15, var (225+25+25+625)/4 = 225
@@ -374,17 +331,11 @@ mod tests {
     fn bad_feature_input_is_an_error() {
         let db = Database::new(vec![0.0; 4], 1, vec![0; 4], &[0; 4], 24.0).unwrap();
         let p = FeatureParams::default();
-        assert!(matches!(
-            FeatureDb::build(&db, &[0.0; 7], 2, &p),
-            Err(MatchError::Length { what: "coordinates", .. })
-        ));
+        assert!(matches!(FeatureDb::build(&db, &[0.0; 7], 2, &p), Err(MatchError::Length { what: "coordinates", .. })));
         assert!(matches!(FeatureDb::build(&db, &[], 0, &p), Err(MatchError::ZeroDimension { .. })));
         let mut y = [0.0; 8];
         y[5] = f64::INFINITY;
-        assert!(matches!(
-            FeatureDb::build(&db, &y, 2, &p),
-            Err(MatchError::NonFinite { frame: 2, column: 1, .. })
-        ));
+        assert!(matches!(FeatureDb::build(&db, &y, 2, &p), Err(MatchError::NonFinite { frame: 2, column: 1, .. })));
         let bad = FeatureParams { offsets: vec![0], ..p.clone() };
         assert!(matches!(FeatureDb::build(&db, &[0.0; 8], 2, &bad), Err(MatchError::Param { .. })));
         let bad = FeatureParams { velocity_weight: f64::NAN, ..p.clone() };

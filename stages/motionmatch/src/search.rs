@@ -78,11 +78,7 @@ impl Blocks {
             for t in searchable.iter() {
                 let b = t / size;
                 let row = &features[t * dim..(t + 1) * dim];
-                for ((l, h), v) in lo[b * dim..(b + 1) * dim]
-                    .iter_mut()
-                    .zip(&mut hi[b * dim..(b + 1) * dim])
-                    .zip(row)
-                {
+                for ((l, h), v) in lo[b * dim..(b + 1) * dim].iter_mut().zip(&mut hi[b * dim..(b + 1) * dim]).zip(row) {
                     *l = l.min(*v);
                     *h = h.max(*v);
                 }
@@ -91,12 +87,7 @@ impl Blocks {
         };
         let (small_lo, small_hi) = boxes(SMALL);
         let (large_lo, large_hi) = boxes(LARGE);
-        Self {
-            small_lo,
-            small_hi,
-            large_lo,
-            large_hi,
-        }
+        Self { small_lo, small_hi, large_lo, large_hi }
     }
 }
 
@@ -132,11 +123,7 @@ impl FeatureDb {
         check_len("query", self.dim, query.len())?;
         check_finite("query", query, self.dim)?;
         if allowed.universe() != self.n {
-            return Err(MatchError::Mismatch {
-                what: "allowed frames",
-                expected: self.n,
-                actual: allowed.universe(),
-            });
+            return Err(MatchError::Mismatch { what: "allowed frames", expected: self.n, actual: allowed.universe() });
         }
         Ok(())
     }
@@ -154,12 +141,7 @@ impl FeatureDb {
     /// # Errors
     /// [`MatchError::Length`] / [`MatchError::NonFinite`] for a bad query,
     /// [`MatchError::Mismatch`] if `allowed` belongs to another database.
-    pub fn search_brute(
-        &self,
-        query: &[f64],
-        allowed: &FrameSet,
-        exclude: Option<Exclusion>,
-    ) -> Result<Option<Match>> {
+    pub fn search_brute(&self, query: &[f64], allowed: &FrameSet, exclude: Option<Exclusion>) -> Result<Option<Match>> {
         self.check_search(query, allowed)?;
         let mut best: Option<Match> = None;
         for w in 0..allowed.words().len() {
@@ -186,12 +168,7 @@ impl FeatureDb {
     ///
     /// # Errors
     /// As [`FeatureDb::search_brute`].
-    pub fn search(
-        &self,
-        query: &[f64],
-        allowed: &FrameSet,
-        exclude: Option<Exclusion>,
-    ) -> Result<Option<Match>> {
+    pub fn search(&self, query: &[f64], allowed: &FrameSet, exclude: Option<Exclusion>) -> Result<Option<Match>> {
         self.check_search(query, allowed)?;
         let d = self.dim;
         let b = &self.blocks;
@@ -281,11 +258,7 @@ mod tests {
         for i in 0..500 {
             let base = rng.gen_range(0..n);
             let noise = [0.0, 0.05, 0.5, 3.0][i % 4];
-            let q: Vec<f64> = feats
-                .features(base)
-                .iter()
-                .map(|v| v + noise * rng.gen_range(-1.0..1.0))
-                .collect();
+            let q: Vec<f64> = feats.features(base).iter().map(|v| v + noise * rng.gen_range(-1.0..1.0)).collect();
             let allowed = match i % 3 {
                 0 => FrameSet::all(n),
                 1 => FrameSet::from_predicate(n, |_| rng.gen_bool(0.3)),
@@ -320,11 +293,8 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(9);
         for i in 0..200 {
             let t = rng.gen_range(0..900);
-            let allowed = if i % 2 == 0 {
-                FrameSet::all(900)
-            } else {
-                FrameSet::from_predicate(900, |_| rng.gen_bool(0.5))
-            };
+            let allowed =
+                if i % 2 == 0 { FrameSet::all(900) } else { FrameSet::from_predicate(900, |_| rng.gen_bool(0.5)) };
             let fast = feats.search(feats.features(t), &allowed, None).unwrap();
             let slow = feats.search_brute(feats.features(t), &allowed, None).unwrap();
             assert_eq!(fast, slow);

@@ -48,11 +48,7 @@ impl Inertializer {
                 reason: format!("must be finite and ≥ 0 seconds, got {halflife}"),
             });
         }
-        Ok(Self {
-            halflife,
-            offset_x: vec![0.0; dim],
-            offset_v: vec![0.0; dim],
-        })
+        Ok(Self { halflife, offset_x: vec![0.0; dim], offset_v: vec![0.0; dim] })
     }
 
     /// Records a switch from the source animation's $(x_s, v_s)$ to the destination's
