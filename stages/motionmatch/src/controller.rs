@@ -260,9 +260,9 @@ mod tests {
         TransitionRequest { start, target, first_search, frames }
     }
 
-    /// The controller reaches label 1 at the first search (output frame `first_search`),
-    /// jumping to the phase-matched frame (start + 1 + 120 at the search, so the output is
-    /// frame 131 + 1), and then plays label 1 on without further jumps.
+    /// The controller reaches label 1 at the first search (output frame `first_search` = 1):
+    /// playing frame 11, it jumps to its phase twin 131 and outputs 132; then label 1 plays
+    /// on without further jumps.
     #[test]
     fn reaches_the_target_at_the_first_search() {
         let (db, feats) = two_sines(1.0, 24);

@@ -1,18 +1,22 @@
 //! Motion-matching and crossfade transition baselines in rig space (method.md §7,
 //! Clavet 2016 as implemented in Holden's `orangeduck/Motion-Matching`). No I/O.
 //!
+//! Each module's docs give its math and conventions; everything is re-exported at the root.
+//!
 //! - [`Database`]: training frames as scaled controls $z_t\in\mathbb R^C$, one label and one
 //!   segment (take) per frame, the frame rate.
 //! - [`FeatureDb`]: per frame, group-normalised features from caller-supplied low-dimensional
 //!   coordinates $y_t\in\mathbb R^q$ (top PCA scores): $y_t$, $y_{t+4}$, $y_{t+8}$, $y_{t+12}$,
 //!   $\dot y_t$ ([`features`] module docs); the searchable frames; block bounding boxes.
-//! - Search: [`FeatureDb::search`] (AABB-accelerated) and [`FeatureDb::search_brute`]
+//! - [`search`]: [`FeatureDb::search`] (AABB-accelerated) and [`FeatureDb::search_brute`]
 //!   return the same [`Match`] over a [`FrameSet`] of allowed frames.
-//! - [`Inertializer`]: one critically damped spring per control ([`decay_spring`]).
-//! - [`Controller`] / [`transition`]: plays the database, searches the requested label on a
-//!   0.1 s cadence, inertializes each jump; the output is a [`Playback`].
-//! - [`crossfade`]: the floor — nearest target pose in $z$, then the Motion Graphs ease over
-//!   `blend_frames`.
+//! - [`spring`]: [`Inertializer`], one critically damped spring per control
+//!   ([`decay_spring`]).
+//! - [`controller`]: [`Controller`] / [`transition`] play the database, search the requested
+//!   label on a 0.1 s cadence and inertialize each jump (timeline, query and switch rule in
+//!   the module docs); the output is a [`Playback`].
+//! - [`crossfade`](mod@crossfade): the floor — nearest target pose in $z$, then the Motion
+//!   Graphs ease over `blend_frames`.
 //!
 //! ```
 //! use reprise_motionmatch::*;
@@ -30,14 +34,14 @@
 //! ```
 #![warn(missing_docs)]
 
-mod controller;
-mod crossfade;
-mod database;
-mod error;
+pub mod controller;
+pub mod crossfade;
+pub mod database;
+pub mod error;
 pub mod features;
-mod playback;
-mod search;
-mod spring;
+pub mod playback;
+pub mod search;
+pub mod spring;
 #[cfg(test)]
 mod testutil;
 
