@@ -32,6 +32,8 @@ pub struct Page<'a> {
     pub speed: Vec<(String, Vec<i64>, Vec<f64>)>,
     /// Labels in order (for the coverage map).
     pub labels: &'a [String],
+    /// Systems compared: (id, shown name).
+    pub systems: &'a [(String, String)],
     /// Provenance lines.
     pub provenance: Vec<(String, String)>,
 }
@@ -159,8 +161,9 @@ pub fn page(p: &Page<'_>, metrics: &[Metric]) -> String {
          table{{border-collapse:collapse;margin:1em 0}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:left;font-size:13px}}\
          .row{{display:flex;flex-wrap:wrap;gap:10px}}figure{{margin:0;text-align:center;font-size:11px}}\
          .fig{{border:1px solid #ddd}}pre{{white-space:pre-wrap;background:#f7f7f7;padding:1em}}</style></head><body>\
-         <h1>reprise against Motion Graphs — {n}</h1>",
-        n = esc(p.name)
+         <h1>reprise against {others} — {n}</h1>",
+        n = esc(p.name),
+        others = esc(&p.systems.iter().skip(1).map(|(_, s)| s.as_str()).collect::<Vec<_>>().join(", "))
     );
     let _ = write!(s, "<h2>Summary</h2><pre>{}</pre>", esc(p.summary_md));
     let _ = write!(s, "<h2>Latent spaces (the paper's Fig. 2)</h2><p>Each label's training latents (x0 against x1), one polyline per segment.</p><div class='row' id='latents'>");
@@ -186,7 +189,8 @@ pub fn page(p: &Page<'_>, metrics: &[Metric]) -> String {
         s += "</div>";
     }
     let _ = write!(s, "<h2>Mesh velocity around transitions</h2><p>Mean over answered requests of the per-frame peak vertex speed, aligned at the first frame of the target label.</p><div id='velocity'>{}</div>", speed_svg(&p.speed));
-    let cov = |sys: &'static str| {
+    let cov = |sys: &str| {
+        let sys = sys.to_string();
         move |a: &str, b: &str| {
             metrics
                 .iter()
@@ -194,12 +198,11 @@ pub fn page(p: &Page<'_>, metrics: &[Metric]) -> String {
                 .map(|m| m.value)
         }
     };
-    let _ = write!(
-        s,
-        "<h2>Coverage (label × label)</h2><div class='row' id='coverage'>{}{}</div>",
-        heat_svg("reprise", p.labels, cov("reprise")),
-        heat_svg("Motion Graphs", p.labels, cov("baseline"))
-    );
+    s += "<h2>Coverage (label × label)</h2><div class='row' id='coverage'>";
+    for (id, shown) in p.systems {
+        s += &heat_svg(shown, p.labels, cov(id));
+    }
+    s += "</div>";
     s += "<h2>All metrics</h2><table><tr><th>system</th><th>metric</th><th>from</th><th>to</th><th>value</th><th>95 % CI</th><th>n</th><th>unit</th></tr>";
     for m in metrics.iter().filter(|m| m.to == "all" || m.to.is_empty()) {
         let ci = match (m.ci_low, m.ci_high) {

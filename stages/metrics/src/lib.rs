@@ -83,6 +83,23 @@ pub fn nearest_distance(x: &[f64], set: &[f64], dim: usize) -> f64 {
         .sqrt()
 }
 
+/// The `k` rows of `set` (`rows × dim`) nearest to `x`: (distance, row), nearest first.
+pub fn nearest_k(x: &[f64], set: &[f64], dim: usize, k: usize) -> Vec<(f64, usize)> {
+    let mut d: Vec<(f64, usize)> = set
+        .chunks_exact(dim.max(1))
+        .enumerate()
+        .map(|(i, r)| (r.iter().zip(x).map(|(a, b)| (a - b) * (a - b)).sum::<f64>(), i))
+        .collect();
+    let order = |a: &(f64, usize), b: &(f64, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+    let k = k.min(d.len());
+    if k < d.len() {
+        d.select_nth_unstable_by(k, order);
+        d.truncate(k);
+    }
+    d.sort_by(order);
+    d.into_iter().map(|(s, i)| (s.sqrt(), i)).collect()
+}
+
 /// The mean over frames of the distance between two equally long sequences.
 pub fn mean_distance(a: &[f64], b: &[f64], dim: usize) -> f64 {
     let n = a.len().min(b.len()) / dim;
@@ -119,6 +136,22 @@ pub fn bootstrap_mean_ci(values: &[f64], resamples: usize, seed: u64) -> (f64, f
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The k nearest rows, nearest first, agree with sorting every distance.
+    #[test]
+    fn nearest_k_agrees_with_a_full_sort() {
+        let set: Vec<f64> = (0..40).map(|i| ((i * 37) % 17) as f64).collect();
+        let x = [3.0, 5.0];
+        let mut all: Vec<(f64, usize)> = set
+            .chunks_exact(2)
+            .enumerate()
+            .map(|(i, r)| (((r[0] - x[0]).powi(2) + (r[1] - x[1]).powi(2)).sqrt(), i))
+            .collect();
+        all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        assert_eq!(nearest_k(&x, &set, 2, 5), all[..5].to_vec());
+        assert_eq!(nearest_k(&x, &set, 2, 99).len(), 20);
+        assert_eq!(nearest_k(&x, &set, 2, 1)[0].0, nearest_distance(&x, &set, 2));
+    }
 
     /// Two vertices, one still and one moving 1, 1, then jumping 5 per frame: the peak
     /// speed is the mover's step × fps.

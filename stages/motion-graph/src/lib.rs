@@ -26,6 +26,11 @@ pub enum Threshold {
     Quantile,
     /// Windowed distance at most `--max-distance`.
     Absolute,
+    /// Per ordered pair of labels (of the frames left and entered), the `--quantile`
+    /// lowest of that pair's local minima, at least one — the per-pair rule of the bridges
+    /// stage, for a baseline at its strongest: every pair with a local minimum gets a
+    /// direct transition.
+    PerPair,
 }
 
 /// `reprise-motion-graph`: the Motion Graphs baseline.
@@ -82,14 +87,14 @@ pub struct Summary {
     pub transitions: usize,
     /// Per label: (label, frames, frames in the SCC).
     pub per_label: Vec<(String, usize, usize)>,
-    /// The distance threshold used.
+    /// The distance threshold used (with `per-pair`, the largest of the pairs').
     pub threshold: f64,
 }
 
 /// Runs the stage (or only validates, with `--check`).
 pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     let bad_threshold = match args.threshold {
-        Threshold::Quantile => !(args.quantile > 0.0 && args.quantile <= 1.0),
+        Threshold::Quantile | Threshold::PerPair => !(args.quantile > 0.0 && args.quantile <= 1.0),
         Threshold::Absolute => !args.max_distance.is_some_and(|d| d >= 0.0),
     };
     if args.window < 2 || bad_threshold {
@@ -132,14 +137,31 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         })
         .collect();
     bar.finish_and_clear();
+    // The `q` quantile of a set of distances (the ⌈q·n⌉-th smallest, at least the smallest).
+    let quantile = |mut v: Vec<f64>| -> f64 {
+        v.sort_by(f64::total_cmp);
+        let idx = ((args.quantile * v.len() as f64).ceil() as usize).clamp(1, v.len().max(1)) - 1;
+        v.get(idx).copied().unwrap_or(0.0)
+    };
+    let pair_of = |m: &(usize, usize, f64)| (labeled.label[m.0].as_str(), labeled.label[m.1].as_str());
+    let limits: std::collections::HashMap<(&str, &str), f64> = match args.threshold {
+        Threshold::PerPair => {
+            let mut by_pair: std::collections::HashMap<(&str, &str), Vec<f64>> = std::collections::HashMap::new();
+            for m in &minima {
+                by_pair.entry(pair_of(m)).or_default().push(m.2);
+            }
+            by_pair.into_iter().map(|(k, v)| (k, quantile(v))).collect()
+        }
+        _ => Default::default(),
+    };
     let threshold = match args.threshold {
         Threshold::Absolute => args.max_distance.unwrap_or(0.0),
-        Threshold::Quantile => {
-            let mut v: Vec<f64> = minima.iter().map(|m| m.2).collect();
-            v.sort_by(f64::total_cmp);
-            let idx = ((args.quantile * v.len() as f64).ceil() as usize).clamp(1, v.len().max(1)) - 1;
-            v.get(idx).copied().unwrap_or(0.0)
-        }
+        Threshold::Quantile => quantile(minima.iter().map(|m| m.2).collect()),
+        Threshold::PerPair => limits.values().copied().fold(0.0, f64::max),
+    };
+    let kept = |m: &(usize, usize, f64)| match args.threshold {
+        Threshold::PerPair => limits.get(&pair_of(m)).is_some_and(|&t| m.2 <= t),
+        _ => m.2 <= threshold,
     };
     let mut edges: Vec<Edge> = Vec::new();
     let mut g = Graph::new(n);
@@ -157,7 +179,7 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         }
     }
     let mut transitions = 0;
-    for &(from, to, d) in minima.iter().filter(|m| m.2 <= threshold) {
+    for &(from, to, d) in minima.iter().filter(|m| kept(m)) {
         g.add(from, to, k as u32, edges.len());
         edges.push(Edge {
             from: from as i64,

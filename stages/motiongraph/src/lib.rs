@@ -116,8 +116,41 @@ impl Graph {
         alive: &[bool],
         target: impl Fn(usize) -> bool,
     ) -> Option<(u32, Vec<usize>)> {
+        self.cheapest_to(start, alive, target, |cost, _| u64::from(cost))
+    }
+
+    /// A near-shortest path, chosen under `seed`: Dijkstra on the costs perturbed to
+    /// $c'_e = c_e\,(1 + s\,u_e)$ with $u_e \in [0, 1)$ a hash of (seed, edge id), so the
+    /// path found costs at most $(1 + s)$ times the shortest (true cost $\le c' $ of it $\le$
+    /// $c'$ of the shortest $\le (1 + s)\,$ its cost). `slack` $s = 0$ is [`Self::shortest_to`].
+    /// Returns the path's true cost and edges.
+    pub fn near_shortest_to(
+        &self,
+        start: usize,
+        alive: &[bool],
+        target: impl Fn(usize) -> bool,
+        slack: f64,
+        seed: u64,
+    ) -> Option<(u32, Vec<usize>)> {
+        // Fixed point: costs in 1/1024 frames, so small perturbations survive rounding.
+        let scale = 1024.0;
+        self.cheapest_to(start, alive, target, |cost, e| {
+            let u = (splitmix(seed ^ splitmix(e as u64)) >> 11) as f64 / (1u64 << 53) as f64;
+            (f64::from(cost) * (1.0 + slack.max(0.0) * u) * scale).round() as u64
+        })
+    }
+
+    /// Dijkstra under `weight(cost, edge id)`; returns the true cost (sum of `cost`) and
+    /// the edges of the path that is cheapest under `weight`.
+    fn cheapest_to(
+        &self,
+        start: usize,
+        alive: &[bool],
+        target: impl Fn(usize) -> bool,
+        weight: impl Fn(u32, usize) -> u64,
+    ) -> Option<(u32, Vec<usize>)> {
         #[derive(PartialEq, Eq)]
-        struct Item(u32, usize);
+        struct Item(u64, usize);
         impl Ord for Item {
             fn cmp(&self, o: &Self) -> Ordering {
                 o.0.cmp(&self.0).then(o.1.cmp(&self.1))
@@ -129,11 +162,11 @@ impl Graph {
             }
         }
         let n = self.adj.len();
-        if start >= n || !alive[start] {
+        if start >= n || alive.len() != n || !alive[start] {
             return None;
         }
-        let mut best = vec![u32::MAX; n];
-        let mut via: Vec<Option<(usize, usize)>> = vec![None; n];
+        let mut best = vec![u64::MAX; n];
+        let mut via: Vec<Option<(usize, usize, u32)>> = vec![None; n];
         let mut heap = BinaryHeap::from([Item(0, start)]);
         best[start] = 0;
         while let Some(Item(c, v)) = heap.pop() {
@@ -141,25 +174,35 @@ impl Graph {
                 continue;
             }
             if v != start && target(v) {
-                let mut edges = Vec::new();
+                let (mut edges, mut total) = (Vec::new(), 0u32);
                 let mut at = v;
-                while let Some((prev, e)) = via[at] {
+                while let Some((prev, e, cost)) = via[at] {
                     edges.push(e);
+                    total = total.saturating_add(cost);
                     at = prev;
                 }
                 edges.reverse();
-                return Some((c, edges));
+                return Some((total, edges));
             }
             for &(w, cost, e) in &self.adj[v] {
-                if alive[w] && c + cost < best[w] {
-                    best[w] = c + cost;
-                    via[w] = Some((v, e));
-                    heap.push(Item(c + cost, w));
+                let next = c.saturating_add(weight(cost, e));
+                if w < n && alive[w] && next < best[w] {
+                    best[w] = next;
+                    via[w] = Some((v, e, cost));
+                    heap.push(Item(next, w));
                 }
             }
         }
         None
     }
+}
+
+/// SplitMix64's finaliser: a well-mixed 64-bit hash of `x`.
+fn splitmix(mut x: u64) -> u64 {
+    x = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    x = (x ^ (x >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    x = (x ^ (x >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    x ^ (x >> 31)
 }
 
 /// Membership of the largest strongly connected component (Tarjan's algorithm,
@@ -262,6 +305,36 @@ mod tests {
         for i in 0..=20 - k {
             assert!(s[i * 20 + i + k - 1] < 1e-9);
         }
+    }
+
+    /// Near-shortest paths: on a ladder of two-way choices (costs 10 or 11 per rung), slack
+    /// 0 is the shortest path; slack 0.2 finds different paths under different seeds, each
+    /// within 1.2 × the shortest; the same seed finds the same path.
+    #[test]
+    fn near_shortest_paths_vary_within_the_slack() {
+        let rungs = 8;
+        let mut g = Graph::new(rungs + 1);
+        let mut id = 0;
+        for r in 0..rungs {
+            for cost in [10, 11] {
+                g.add(r, r + 1, cost, id);
+                id += 1;
+            }
+        }
+        let alive = vec![true; rungs + 1];
+        let goal = |v: usize| v == rungs;
+        let (best, _) = g.shortest_to(0, &alive, goal).unwrap();
+        assert_eq!(best, 80);
+        assert_eq!(g.near_shortest_to(0, &alive, goal, 0.0, 5).unwrap().0, 80);
+        let paths: std::collections::BTreeSet<Vec<usize>> = (0..20)
+            .map(|seed| {
+                let (cost, path) = g.near_shortest_to(0, &alive, goal, 0.2, seed).unwrap();
+                assert!(f64::from(cost) <= 1.2 * f64::from(best), "{cost}");
+                assert_eq!(g.near_shortest_to(0, &alive, goal, 0.2, seed).unwrap().1, path);
+                path
+            })
+            .collect();
+        assert!(paths.len() > 5, "only {} distinct paths", paths.len());
     }
 
     /// Local minima: the two dips of a surface, not its slopes; exclusions respected.

@@ -3,16 +3,18 @@
 //!
 //! - by **reprise**: the script start = the frame, IDLE `hold` seconds, TRANSITION to B,
 //!   IDLE `hold` seconds, run by the synthesis engine;
-//! - by the **baseline**: from the frame's node, the fewest-frames path in the pruned
-//!   motion graph to any frame of B, played frame by frame; a transition edge
+//! - by the **baseline**: from the frame's node, a near-fewest-frames path in the pruned
+//!   motion graph to any frame of B (within `path_slack` of the fewest, chosen under the
+//!   seed — see `Graph::near_shortest_to`), played frame by frame; a transition edge
 //!   $A_i \to B_{j+1}$ plays the $k$ blended frames $\alpha(p)p^A_{i+p} + (1-\alpha(p))p^B_{j-k+1+p}$
 //!   (rig space: the blend of scaled controls, unscaled, is this blend of controls), then
 //!   `hold` seconds more of B where its motion goes on. A start frame outside the largest
 //!   strongly connected component has no answer.
 //!
-//! reprise also answers every request once more with another seed (`reprise_reseeded`),
-//! for the variety metric. Both write curves (scripts `r<id>`); a frame's `model` is the label being played (for
-//! blended frames, the label blended into). Latency: frames from the request to the
+//! Both systems also answer every request once more under another seed (`*_reseeded`),
+//! for the variety metric. Each system writes its answers (`transition_answers`) and its
+//! curves (scripts `r<id>`); a frame's `model` is the label being played (for blended
+//! frames, the label blended into). Latency: frames from the request to the
 //! first frame of B — for reprise from the end of its hold (the TRANSITION command), for
 //! the baseline from its start frame; the hold before the request counts for no one.
 
@@ -53,10 +55,14 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
     pub mg_edges: PathBuf,
-    /// Output: the requests and how each system answered.
+    /// Output: the requests.
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
     pub requests: PathBuf,
+    /// Output: reprise's answers.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub reprise_answers: PathBuf,
     /// Output: reprise's curves.
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
@@ -65,10 +71,18 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
     pub reprise_reseeded: PathBuf,
+    /// Output: the baseline's answers.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub baseline_answers: PathBuf,
     /// Output: the baseline's curves.
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
     pub baseline_curves: PathBuf,
+    /// Output: the baseline's curves under other seeds (another near-shortest path).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub baseline_reseeded: PathBuf,
     /// Requests per ordered pair of labels.
     #[arg(long, default_value_t = 5)]
     pub per_pair: usize,
@@ -78,6 +92,10 @@ pub struct Args {
     /// Seconds played before and after the transition.
     #[arg(long, default_value_t = 0.5)]
     pub hold: f64,
+    /// The baseline's path choice: any path at most (1 + slack) × the fewest frames, chosen
+    /// under the seed (0: always the shortest, and no variety).
+    #[arg(long, default_value_t = 0.1)]
+    pub path_slack: f64,
     /// The motion graph's blend length k (frames; as its window).
     #[arg(long, default_value_t = 12)]
     pub window: usize,
@@ -98,18 +116,27 @@ struct Baseline<'a> {
     labeled: &'a LabeledFrames,
     k: usize,
     hold: usize,
+    slack: f64,
 }
 
 /// One request's answers: the request, reprise's frames, the baseline's frames, and
 /// reprise's frames under another seed.
-type Answers = (Request, Result<Played, String>, Result<Played, String>, Result<Played, String>);
+struct Answers {
+    request: Request,
+    /// Per system (reprise, baseline): its answer and its frames under the request's seed
+    /// and under the reseeded one.
+    systems: [(Answer, Result<Played, String>, Result<Played, String>); 2],
+}
+
+/// The systems this stage answers with, in the order of [`Answers::systems`].
+const SYSTEMS: [&str; 2] = ["reprise", "baseline"];
 
 /// The seed offset of the repeated runs.
 pub const RESEED: u64 = 1_000_003;
 
 impl Baseline<'_> {
-    fn answer(&self, start: usize, to: &str) -> Result<Played, String> {
-        let Baseline { g, alive, edges, labeled, k, hold } = *self;
+    fn answer(&self, start: usize, to: &str, seed: u64) -> Result<Played, String> {
+        let Baseline { g, alive, edges, labeled, k, hold, slack } = *self;
         let row = |r: usize| labeled.frames.row(r).to_vec();
         let mut out: Played = vec![(labeled.label[start].clone(), row(start))];
         // A start the pruning dropped plays forward along its clip into the kept component
@@ -125,8 +152,9 @@ impl Baseline<'_> {
             out.push((labeled.label[w].clone(), row(w)));
             at = w;
         }
-        let (_, path) =
-            g.shortest_to(at, alive, |v| labeled.label[v] == to).ok_or_else(|| format!("no path to `{to}`"))?;
+        let (_, path) = g
+            .near_shortest_to(at, alive, |v| labeled.label[v] == to, slack, seed)
+            .ok_or_else(|| format!("no path to `{to}` in the motion graph"))?;
         for &e in &path {
             let edge = &edges[e];
             let (from, dest) = (edge.from as usize, edge.to as usize);
@@ -172,10 +200,17 @@ fn latency(p: &Played, to: &str, request: usize) -> Option<i64> {
     p.iter().position(|(l, _)| l == to).map(|i| i as i64 - request as i64)
 }
 
-/// Runs the stage; returns the requests.
-pub fn run(args: &Args) -> StageResult<Option<Vec<Request>>> {
-    if args.per_pair == 0 || args.hold.is_nan() || args.hold < 0.0 || args.window < 2 {
-        return Err(StageError::Config("need --per-pair >= 1, --hold >= 0, --window >= 2".into()));
+/// Runs the stage; returns the requests with each system's answers.
+pub fn run(args: &Args) -> StageResult<Option<Vec<(Request, [Answer; 2])>>> {
+    if args.per_pair == 0
+        || args.hold.is_nan()
+        || args.hold < 0.0
+        || args.window < 2
+        || !(0.0..=10.0).contains(&args.path_slack)
+    {
+        return Err(StageError::Config(
+            "need --per-pair >= 1, --hold >= 0, --window >= 2, --path-slack in [0, 10]".into(),
+        ));
     }
     if args.check {
         return Ok(None);
@@ -199,7 +234,21 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Request>>> {
     }
     let mut g = Graph::new(nodes.frame.len());
     for (i, e) in edges.iter().enumerate() {
-        g.add(e.from as usize, e.to as usize, e.cost as u32, i);
+        let (a, b) = (e.from as usize, e.to as usize);
+        let n = g.adj.len();
+        // A transition edge blends A_a … A_{a+k−1} with B_{b−k+1} … B_b.
+        let blend_fits = e.kind != "transition" || (b >= args.window && a + args.window <= n);
+        if e.from < 0 || e.to < 0 || a >= n || b >= n || !blend_fits {
+            return Err(StageError::Input(format!(
+                "{}: edge {i} ({} → {}) does not index the {n} frames of {} with a {}-frame blend; rerun motion-graph",
+                args.mg_edges.display(),
+                e.from,
+                e.to,
+                args.mg_nodes.display(),
+                args.window
+            )));
+        }
+        g.add(a, b, e.cost as u32, i);
     }
     let lib = parts.library();
     let settings = Settings { fps: labeled.frames.fps, ..Settings::default() };
@@ -210,6 +259,12 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Request>>> {
     let mut requests = Vec::new();
     for a in &labels {
         let rows: Vec<usize> = (0..labeled.frames.rows()).filter(|&r| &labeled.label[r] == a).collect();
+        if rows.is_empty() {
+            return Err(StageError::Input(format!(
+                "label `{a}` of the models has no frame in {}",
+                args.labeled_frames.display()
+            )));
+        }
         for b in labels.iter().filter(|b| *b != a) {
             for _ in 0..args.per_pair {
                 let r = rows[rng.gen_range(0..rows.len())];
@@ -217,17 +272,25 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Request>>> {
             }
         }
     }
-    let base =
-        Baseline { g: &g, alive: &nodes.in_scc, edges: &edges, labeled: &labeled, k: args.window, hold: hold_frames };
+    let base = Baseline {
+        g: &g,
+        alive: &nodes.in_scc,
+        edges: &edges,
+        labeled: &labeled,
+        k: args.window,
+        hold: hold_frames,
+        slack: args.path_slack,
+    };
     let bar = reprise_stagekit::progress(requests.len() as u64, "transitions");
     let answers: Vec<Answers> = requests
         .par_iter()
         .map(|(id, a, b, r)| {
             let hold =
                 Command::Idle { duration: args.hold.max(1.0 / settings.fps), radius: None, poses: vec![], hover: None };
+            let seed = args.seed.wrapping_add(*id as u64);
             let script = Script {
                 name: Some(format!("r{id}")),
-                seed: args.seed.wrapping_add(*id as u64),
+                seed,
                 start: Start {
                     label: a.clone(),
                     segment: Some(labeled.segment_id[*r]),
@@ -237,65 +300,69 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Request>>> {
                 },
                 commands: vec![hold.clone(), Command::Transition { to: b.clone(), blend_frames: None }, hold],
             };
-            // The request comes after the hold: at the hold's last frame.
-            let play = |script: &Script| {
-                engine::run(&lib, script, &settings)
+            // reprise is asked after its hold: at the hold's last frame; the baseline at
+            // its start frame.
+            let ours = |seed: u64| {
+                engine::run(&lib, &Script { seed, ..script.clone() }, &settings)
                     .map(|f| {
                         let asked = f.iter().position(|f| f.command == 1).map_or(0, |i| i.saturating_sub(1));
                         (asked, f.into_iter().map(|f| (labels[f.model].clone(), f.controls)).collect::<Played>())
                     })
                     .map_err(|e| e.to_string())
             };
-            let (ours, ours_asked) = match play(&script) {
-                Ok((asked, p)) => (Ok(p), asked),
-                Err(e) => (Err(e), 0),
+            let theirs = |seed: u64| base.answer(*r, b, seed).map(|p| (0, p));
+            let answer = |p: &Result<(usize, Played), String>| match p {
+                Ok((asked, p)) => match latency(p, b, *asked) {
+                    Some(l) => Answer::reached(*asked, l),
+                    None => Answer { asked: *asked as i64, ..Answer::failed(format!("never reached `{b}`")) },
+                },
+                Err(e) => Answer::failed(e.clone()),
             };
-            let again = play(&Script { seed: script.seed.wrapping_add(RESEED), ..script.clone() }).map(|(_, p)| p);
-            let theirs = base.answer(*r, b);
-            let answer = |p: &Result<Played, String>, request: usize| match p {
-                Ok(p) => Answer { latency: latency(p, b, request), asked: request as i64, error: String::new() },
-                Err(e) => Answer { latency: None, asked: 0, error: e.clone() },
+            let system = |play: &dyn Fn(u64) -> Result<(usize, Played), String>| {
+                let first = play(seed);
+                let again = play(seed.wrapping_add(RESEED)).map(|(_, p)| p);
+                (answer(&first), first.map(|(_, p)| p), again)
             };
-            let req = Request {
+            let request = Request {
                 request: *id as i64,
                 from: a.clone(),
                 to: b.clone(),
                 segment_id: labeled.segment_id[*r],
                 clip: labeled.frames.clip[*r].clone(),
                 frame: labeled.frames.frame[*r],
-                reprise: answer(&ours, ours_asked),
-                baseline: answer(&theirs, 0),
             };
             bar.inc(1);
-            (req, ours, theirs, again)
+            Answers { request, systems: [system(&ours), system(&theirs)] }
         })
         .collect();
     bar.finish_and_clear();
     let fps = labeled.frames.fps;
-    let curves_of = |pick: fn(&Answers) -> &Result<Played, String>| {
+    let curves_of = |s: usize, again: bool| {
         let mut c = Curves { fps, controls: models.controls.clone(), ..Default::default() };
         for ans in &answers {
-            if let Ok(p) = pick(ans) {
-                for (f, (label, controls)) in p.iter().enumerate() {
-                    c.script.push(format!("r{}", ans.0.request));
-                    c.frame.push(f as i64);
-                    c.time.push(f as f64 / fps);
-                    c.model.push(label.clone());
-                    c.command.push(0);
-                    c.x.push(vec![]);
-                    c.values.extend_from_slice(controls);
-                }
+            let (_, first, second) = &ans.systems[s];
+            if let Ok(p) = if again { second } else { first } {
+                c.push_script(
+                    &format!("r{}", ans.request.request),
+                    p.iter().map(|(label, controls)| (label.as_str(), controls.as_slice())),
+                );
             }
         }
         c
     };
-    let (ours, theirs, again) = (curves_of(|a| &a.1), curves_of(|a| &a.2), curves_of(|a| &a.3));
-    curves::write(&args.reprise_curves, &ours, &provenance)?;
-    curves::write(&args.reprise_reseeded, &again, &provenance)?;
-    curves::write(&args.baseline_curves, &theirs, &provenance)?;
-    let reqs: Vec<Request> = answers.into_iter().map(|a| a.0).collect();
-    transitions::write(&args.requests, &reqs, &provenance)?;
-    Ok(Some(reqs))
+    let outputs = [
+        (&args.reprise_answers, &args.reprise_curves, &args.reprise_reseeded),
+        (&args.baseline_answers, &args.baseline_curves, &args.baseline_reseeded),
+    ];
+    for (s, (answers_path, curves_path, reseeded_path)) in outputs.into_iter().enumerate() {
+        let rows: Vec<(i64, Answer)> = answers.iter().map(|a| (a.request.request, a.systems[s].0.clone())).collect();
+        transitions::write_answers(answers_path, SYSTEMS[s], &rows, &provenance)?;
+        curves::write(curves_path, &curves_of(s, false), &provenance)?;
+        curves::write(reseeded_path, &curves_of(s, true), &provenance)?;
+    }
+    let reqs: Vec<Request> = answers.iter().map(|a| a.request.clone()).collect();
+    transitions::write_requests(&args.requests, &reqs, &provenance)?;
+    Ok(Some(answers.into_iter().map(|a| (a.request, [a.systems[0].0.clone(), a.systems[1].0.clone()])).collect()))
 }
 
 #[cfg(test)]
@@ -343,13 +410,13 @@ mod tests {
                 g.add(e.from as usize, e.to as usize, e.cost as u32, i);
             }
             let alive = vec![true; 80];
-            let base = Baseline { g: &g, alive: &alive, edges: &edges, labeled: &lf, k, hold: 3 };
-            let played = base.answer(start, "b").unwrap();
+            let base = Baseline { g: &g, alive: &alive, edges: &edges, labeled: &lf, k, hold: 3, slack: 0.0 };
+            let played = base.answer(start, "b", 0).unwrap();
             // Pruned starts play forward into the kept component: the same answer, later.
             let mut pruned = alive.clone();
             pruned[..start].iter_mut().for_each(|a| *a = false);
             if start > 0 {
-                let late = Baseline { alive: &pruned, ..base }.answer(start - 1, "b").unwrap();
+                let late = Baseline { alive: &pruned, ..base }.answer(start - 1, "b", 0).unwrap();
                 assert_eq!(late.len(), played.len() + 1, "one frame more, from the frame before");
             }
             let v: Vec<f64> = played.iter().map(|(_, p)| p[0]).collect();

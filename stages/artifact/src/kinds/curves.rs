@@ -44,6 +44,22 @@ pub struct Curves {
     pub values: Vec<f64>,
 }
 
+impl Curves {
+    /// Appends one script played frame by frame: per frame (producing label, controls),
+    /// frames numbered from 0 at `fps`, command 0, no latent point.
+    pub fn push_script<'a>(&mut self, script: &str, frames: impl IntoIterator<Item = (&'a str, &'a [f64])>) {
+        for (f, (label, controls)) in frames.into_iter().enumerate() {
+            self.script.push(script.to_string());
+            self.frame.push(f as i64);
+            self.time.push(f as f64 / self.fps);
+            self.model.push(label.to_string());
+            self.command.push(0);
+            self.x.push(vec![]);
+            self.values.extend_from_slice(controls);
+        }
+    }
+}
+
 /// Writes curves atomically.
 pub fn write(path: &Path, c: &Curves, provenance: &Provenance) -> Result<()> {
     let q = c.x.first().map_or(0, Vec::len);

@@ -5,8 +5,8 @@ fn main() {
     let args = reprise_transitions::Args::parse();
     reprise_stagekit::main("reprise-transitions", || {
         if let Some(reqs) = reprise_transitions::run(&args)? {
-            let summary = |name: &str, pick: fn(&reprise_artifact::transitions::Request) -> Option<i64>| {
-                let mut l: Vec<i64> = reqs.iter().filter_map(pick).collect();
+            for (s, name) in ["reprise", "baseline"].into_iter().enumerate() {
+                let mut l: Vec<i64> = reqs.iter().filter_map(|(_, a)| a[s].latency).collect();
                 l.sort_unstable();
                 let median = l.get(l.len() / 2).map_or("-".to_string(), |v| v.to_string());
                 eprintln!(
@@ -14,9 +14,7 @@ fn main() {
                     l.len(),
                     reqs.len()
                 );
-            };
-            summary("reprise", |r| r.reprise.latency);
-            summary("baseline", |r| r.baseline.latency);
+            }
         }
         Ok(())
     });

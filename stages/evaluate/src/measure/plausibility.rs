@@ -1,0 +1,118 @@
+//! Plausibility: how far a played pose is from the nearest training pose, measured twice —
+//! against the raw training frames and against the training frames projected through
+//! their own label's PCA (the floor a PCA-based model can reach) — in scaled control space
+//! and on the mesh, and kept apart by phase.
+//!
+//! Units: a distance in scaled control space is divided by the median distance between
+//! consecutive training frames there ([`Training::step`]); an RMS vertex distance by the
+//! median RMS vertex motion between consecutive training frames ([`Training::mesh_step`]).
+//! "3" reads "as far from any training pose as three frames of typical motion".
+
+use std::ops::Range;
+
+use super::Phase;
+use crate::training::Training;
+
+/// Where a distance is measured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Space {
+    /// Scaled control space $z = \bar w \odot p$.
+    Scaled,
+    /// RMS vertex distance on the mesh (nearest among the scaled space's nearest candidates).
+    Mesh,
+}
+
+/// Which training poses the distance is to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reference {
+    /// The training frames.
+    Raw,
+    /// The training frames projected through their own label's PCA.
+    Floor,
+}
+
+impl Space {
+    /// Both spaces.
+    pub const ALL: [Space; 2] = [Space::Scaled, Space::Mesh];
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Space::Scaled => "scaled",
+            Space::Mesh => "mesh",
+        }
+    }
+}
+
+impl Reference {
+    /// Both references.
+    pub const ALL: [Reference; 2] = [Reference::Raw, Reference::Floor];
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Reference::Raw => "raw",
+            Reference::Floor => "floor",
+        }
+    }
+}
+
+/// The metric name of a plausibility measure: `plausibility_<reference>_<space>`, with
+/// `_<phase>` for one phase (none: reach, blend and settle together — the answer).
+pub fn metric_name(reference: Reference, space: Space, phase: Option<Phase>) -> String {
+    match phase {
+        None => format!("plausibility_{}_{}", reference.name(), space.name()),
+        Some(p) => format!("plausibility_{}_{}_{}", reference.name(), space.name(), p.name()),
+    }
+}
+
+/// One answer's normalised distances, per (reference, space, phase).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Plausibility {
+    values: [[[Vec<f64>; 4]; 2]; 2],
+}
+
+impl Plausibility {
+    /// Measures every `stride`-th frame of an answer (controls per frame, meshes
+    /// `frames × dim`) split into `phases` (as [`Phase::ranges`]).
+    pub fn measure(
+        training: &Training,
+        controls: &[Vec<f64>],
+        meshes: &[f64],
+        phases: &[Range<usize>; 4],
+        stride: usize,
+    ) -> Self {
+        let mut out = Self::default();
+        let dim = training.dim;
+        for t in (0..controls.len()).step_by(stride.max(1)) {
+            let Some(phase) = phases.iter().position(|r| r.contains(&t)) else { continue };
+            let z = training.z(&controls[t]);
+            let m = &meshes[t * dim..(t + 1) * dim];
+            for (ri, set) in [&training.raw, &training.floor].into_iter().enumerate() {
+                let near = set.nearest(&z, m);
+                out.values[ri][0][phase].push(near.scaled / training.step);
+                out.values[ri][1][phase].push(near.mesh / training.mesh_step);
+            }
+        }
+        out
+    }
+
+    /// The distances of one phase, or of the answer (reach, blend and settle) for `None`.
+    pub fn values(&self, reference: Reference, space: Space, phase: Option<Phase>) -> Vec<f64> {
+        let ri = Reference::ALL.iter().position(|r| *r == reference).unwrap_or(0);
+        let si = Space::ALL.iter().position(|s| *s == space).unwrap_or(0);
+        let v = &self.values[ri][si];
+        match phase {
+            Some(p) => v[Phase::ALL.iter().position(|q| *q == p).unwrap_or(0)].clone(),
+            None => v[1..].concat(),
+        }
+    }
+
+    /// The mean distance over the answer (NaN without frames).
+    pub fn mean(&self, reference: Reference, space: Space) -> f64 {
+        let v = self.values(reference, space, None);
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            v.iter().sum::<f64>() / v.len() as f64
+        }
+    }
+}

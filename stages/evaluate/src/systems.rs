@@ -1,0 +1,121 @@
+//! The systems compared on the transition benchmark, and what each of them played.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use reprise_artifact::curves::{self, Curves};
+use reprise_artifact::transitions::{self, Answer, Answers, Request};
+use reprise_stagekit::{StageError, StageResult};
+
+/// Every system the benchmark knows: (id in `transition_answers.system`, name in the report).
+/// reprise comes first: it is the method under test, and every other system is paired with it.
+pub const KNOWN: [(&str, &str); 4] = [
+    ("reprise", "reprise"),
+    ("baseline", "Motion Graphs"),
+    ("motion-matching", "Motion matching"),
+    ("crossfade", "Crossfade"),
+];
+
+/// One answer's frames: controls (rows in the labeled frames' control order) and, per
+/// frame, the label that produced it (a blended frame counts as the label blended into).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Played {
+    /// Controls per frame.
+    pub controls: Vec<Vec<f64>>,
+    /// Producing label per frame.
+    pub model: Vec<String>,
+}
+
+/// One system: its answers and the frames it played for each answered request.
+#[derive(Debug, Clone)]
+pub struct System {
+    /// Id (see [`KNOWN`]).
+    pub id: String,
+    /// Name shown in the report.
+    pub shown: String,
+    /// Its answers, one per request.
+    pub answers: Answers,
+    /// Frames per request id.
+    pub played: BTreeMap<i64, Played>,
+    /// The same requests answered under other seeds, where the system has seeds.
+    pub reseeded: Option<BTreeMap<i64, Played>>,
+}
+
+impl System {
+    /// The answer to `r` (every request of the benchmark has one: checked on load).
+    pub fn answer(&self, r: &Request) -> Option<&Answer> {
+        self.answers.get(r.request)
+    }
+
+    /// Whether `r` was answered.
+    pub fn answered(&self, r: &Request) -> bool {
+        self.answer(r).is_some_and(|a| a.latency.is_some())
+    }
+
+    /// Loads a system's answers and curves and checks them against the requests and the
+    /// controls: the file says it is `id`'s, answers every request once, and the frames of
+    /// every answered request reach as far as its latency says.
+    pub fn load(
+        id: &str,
+        answers: &Path,
+        curves_path: &Path,
+        reseeded: Option<&Path>,
+        requests: &[Request],
+        controls: &[String],
+    ) -> StageResult<Self> {
+        let shown = KNOWN.iter().find(|(k, _)| *k == id).map_or(id, |(_, s)| *s).to_string();
+        let a = transitions::read_answers(answers)?;
+        if a.system != id && !(a.by_request.is_empty() && requests.is_empty()) {
+            return Err(StageError::Input(format!(
+                "{} holds `{}`'s answers where `{id}`'s were expected",
+                answers.display(),
+                a.system
+            )));
+        }
+        if let Some(r) = requests.iter().find(|r| a.get(r.request).is_none()) {
+            return Err(StageError::Input(format!(
+                "{} has no answer to request {}; it answers another benchmark (rerun the stage that wrote it)",
+                answers.display(),
+                r.request
+            )));
+        }
+        let read = |p: &Path| -> StageResult<BTreeMap<i64, Played>> {
+            let c = curves::read(p)?;
+            if c.controls != controls {
+                return Err(StageError::Input(format!("{} lists other controls than the labeled frames", p.display())));
+            }
+            Ok(by_request(&c))
+        };
+        let played = read(curves_path)?;
+        for r in requests {
+            let ans = a.get(r.request).expect("checked above");
+            if let Some(l) = ans.latency {
+                let len = played.get(&r.request).map_or(0, |p| p.controls.len()) as i64;
+                if ans.asked + l >= len {
+                    return Err(StageError::Input(format!(
+                        "{}: request {} is answered at frame {} but {} holds {len} frames of it",
+                        answers.display(),
+                        r.request,
+                        ans.asked + l,
+                        curves_path.display()
+                    )));
+                }
+            }
+        }
+        let reseeded = reseeded.map(read).transpose()?;
+        Ok(Self { id: id.into(), shown, answers: a, played, reseeded })
+    }
+}
+
+/// Frames per request: scripts are named `r<id>`; other scripts are ignored.
+pub fn by_request(c: &Curves) -> BTreeMap<i64, Played> {
+    let n = c.controls.len();
+    let mut out: BTreeMap<i64, Played> = BTreeMap::new();
+    for r in 0..c.script.len() {
+        let Some(id) = c.script[r].strip_prefix('r').and_then(|s| s.parse().ok()) else { continue };
+        let p = out.entry(id).or_default();
+        p.controls.push(c.values[r * n..(r + 1) * n].to_vec());
+        p.model.push(c.model[r].clone());
+    }
+    out
+}

@@ -1,0 +1,290 @@
+//! The training data's reference values that every metric is measured against, computed
+//! once, the same for every system: motion percentiles on meshes, the median frame step,
+//! and the two reference sets of plausibility — the training frames as they are (`raw`),
+//! and each projected through its own label's PCA (`floor`: the poses a PCA-based model
+//! can reach at best, so a system that replays training frames and one that synthesises
+//! through the PCA are compared on matched floors).
+
+use rayon::prelude::*;
+use reprise_artifact::frames::LabeledFrames;
+use reprise_metrics::{nearest_k, peak_speeds, peaks, quantile};
+use reprise_numerics::gplvm::RigMap;
+use reprise_stagekit::rig::{mesh_rmse, meshes};
+use reprise_stagekit::{StageError, StageResult};
+
+/// The rig the meshes are evaluated through.
+pub type RigRef<'a> = &'a (Box<dyn reprise_rig::Rig>, reprise_rig::PoseLayout);
+
+/// Candidates, nearest in scaled control space, among which the mesh-space nearest frame
+/// is sought (the scaled space is built to approximate mesh distances; this keeps the
+/// search linear in the corpus).
+pub const MESH_CANDIDATES: usize = 32;
+
+/// A set of reference poses in scaled control space and on the mesh.
+#[derive(Debug, Clone, Default)]
+pub struct Reference {
+    /// Scaled controls $z = \bar w \odot p$, `N × C`.
+    pub z: Vec<f64>,
+    /// Vertex positions, `N × 3V` (single precision: distances are reported to 3 digits).
+    pub mesh: Vec<f32>,
+}
+
+/// The training data's reference values.
+#[derive(Debug, Clone)]
+pub struct Training {
+    /// Frames per second.
+    pub fps: f64,
+    /// Mesh values per frame, $3V$.
+    pub dim: usize,
+    /// Scaled-space weights $\bar w$ (mean over labels).
+    pub weight: Vec<f64>,
+    /// 95th percentile of per-frame peak vertex acceleration (mesh units/s²).
+    pub acc95: f64,
+    /// 95th percentile of per-frame peak vertex jerk (mesh units/s³).
+    pub jerk95: f64,
+    /// 99th percentile of per-frame peak vertex speed (mesh units/s).
+    pub speed99: f64,
+    /// Median distance between consecutive training frames in scaled control space.
+    pub step: f64,
+    /// Median RMS vertex distance between consecutive training frames (mesh units).
+    pub mesh_step: f64,
+    /// The training frames.
+    pub raw: Reference,
+    /// The training frames, each projected through its own label's PCA.
+    pub floor: Reference,
+}
+
+/// One frame's distance to a reference set, in both spaces (unnormalised).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Nearest {
+    /// Scaled control space (mesh length).
+    pub scaled: f64,
+    /// RMS vertex distance to the nearest of the [`MESH_CANDIDATES`] (mesh units).
+    pub mesh: f64,
+}
+
+impl Reference {
+    /// Distance from a pose (scaled controls `z`, mesh `m`) to the set.
+    pub fn nearest(&self, z: &[f64], m: &[f64]) -> Nearest {
+        let (c, dim) = (z.len(), m.len());
+        let near = nearest_k(z, &self.z, c, MESH_CANDIDATES);
+        let scaled = near.first().map_or(f64::INFINITY, |n| n.0);
+        let mesh = near
+            .iter()
+            .map(|&(_, i)| {
+                let r = &self.mesh[i * dim..(i + 1) * dim];
+                let sq: f64 = r.iter().zip(m).map(|(a, b)| (f64::from(*a) - b).powi(2)).sum();
+                (sq / (dim / 3).max(1) as f64).sqrt()
+            })
+            .fold(f64::INFINITY, f64::min);
+        Nearest { scaled, mesh }
+    }
+}
+
+impl Training {
+    /// Measures the reference values. `maps` holds each label's PCA map (for the floor);
+    /// `mesh_limit` bounds the values held for the two mesh reference sets.
+    pub fn measure(
+        rig: RigRef<'_>,
+        labeled: &LabeledFrames,
+        weight: Vec<f64>,
+        maps: &[(String, RigMap)],
+        mesh_limit: usize,
+    ) -> StageResult<Self> {
+        let n = labeled.frames.rows();
+        let fps = labeled.frames.fps;
+        let dim = 3 * rig.0.vertex_count();
+        if n.saturating_mul(dim).saturating_mul(2) > mesh_limit {
+            return Err(StageError::Config(format!(
+                "{n} training frames × {dim} mesh values × 2 reference sets exceed --mesh-reference-limit {mesh_limit}; \
+                 raise it (memory: 4 bytes per value)"
+            )));
+        }
+        let map_of = |label: &str| -> StageResult<&RigMap> {
+            maps.iter().find(|(l, _)| l == label).map(|(_, m)| m).ok_or_else(|| {
+                StageError::Input(format!("no PCA model for label `{label}` of the labeled frames; rerun pca"))
+            })
+        };
+        let z = |p: &[f64]| -> Vec<f64> { p.iter().zip(&weight).map(|(a, w)| a * w).collect() };
+        struct Segment {
+            acc: Vec<f64>,
+            jerk: Vec<f64>,
+            speed: Vec<f64>,
+            mesh_steps: Vec<f64>,
+            raw: Reference,
+            floor: Reference,
+        }
+        let runs = labeled.segment_runs();
+        let segments: Vec<StageResult<Segment>> = runs
+            .par_iter()
+            .map(|&(s, e)| {
+                let rows: Vec<Vec<f64>> = (s..e).map(|r| labeled.frames.row(r).to_vec()).collect();
+                let map = map_of(&labeled.label[s])?;
+                let mut y = vec![0.0; map.d()];
+                let floor_rows: Vec<Vec<f64>> = rows
+                    .iter()
+                    .map(|p| {
+                        let mut out = vec![0.0; p.len()];
+                        map.project(p, &mut y);
+                        map.apply(&y, &mut out);
+                        out
+                    })
+                    .collect();
+                let m = meshes(rig, &rows)?;
+                let (a, j) = peaks(&m, dim, fps);
+                let v = peak_speeds(&m, dim, fps);
+                let mesh_steps = (1..rows.len())
+                    .map(|t| mesh_rmse(&m[t * dim..(t + 1) * dim], &m[(t - 1) * dim..t * dim]))
+                    .collect();
+                let fm = meshes(rig, &floor_rows)?;
+                let f32s = |m: &[f64]| m.iter().map(|&v| v as f32).collect::<Vec<f32>>();
+                Ok(Segment {
+                    acc: a[1..a.len().saturating_sub(1)].to_vec(),
+                    jerk: j[1..j.len().saturating_sub(2).max(1)].to_vec(),
+                    speed: v.get(1..).unwrap_or_default().to_vec(),
+                    mesh_steps,
+                    raw: Reference { z: rows.iter().flat_map(|r| z(r)).collect(), mesh: f32s(&m) },
+                    floor: Reference { z: floor_rows.iter().flat_map(|r| z(r)).collect(), mesh: f32s(&fm) },
+                })
+            })
+            .collect();
+        let (mut acc, mut jerk, mut speed, mut mesh_steps) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut raw, mut floor) = (Reference::default(), Reference::default());
+        for s in segments {
+            let s = s?;
+            acc.extend(s.acc);
+            jerk.extend(s.jerk);
+            speed.extend(s.speed);
+            mesh_steps.extend(s.mesh_steps);
+            raw.z.extend(s.raw.z);
+            raw.mesh.extend(s.raw.mesh);
+            floor.z.extend(s.floor.z);
+            floor.mesh.extend(s.floor.mesh);
+        }
+        let c = weight.len();
+        let steps: Vec<f64> = runs
+            .iter()
+            .flat_map(|&(s, e)| {
+                let raw = &raw.z;
+                (s + 1..e).map(move |r| {
+                    raw[r * c..(r + 1) * c]
+                        .iter()
+                        .zip(&raw[(r - 1) * c..r * c])
+                        .map(|(a, b)| (a - b).powi(2))
+                        .sum::<f64>()
+                        .sqrt()
+                })
+            })
+            .collect();
+        Ok(Self {
+            fps,
+            dim,
+            acc95: quantile(&acc, 0.95),
+            jerk95: quantile(&jerk, 0.95),
+            speed99: quantile(&speed, 0.99).max(1e-12),
+            step: quantile(&steps, 0.5).max(1e-12),
+            mesh_step: quantile(&mesh_steps, 0.5).max(1e-12),
+            weight,
+            raw,
+            floor,
+        })
+    }
+
+    /// Scaled controls $z = \bar w \odot p$.
+    pub fn z(&self, p: &[f64]) -> Vec<f64> {
+        p.iter().zip(&self.weight).map(|(a, w)| a * w).collect()
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use reprise_artifact::frames::Frames;
+    use reprise_rig::linear::LinearRig;
+    use reprise_rig::{Local, PoseLayout};
+
+    /// A linear rig over controls `c0 c1 c2` with 4 vertices.
+    pub(crate) fn rig() -> (Box<dyn reprise_rig::Rig>, PoseLayout) {
+        let names: Vec<String> = (0..3).map(|j| format!("c{j}")).collect();
+        let layout = PoseLayout::new(&names, vec![0.0; 3], &names).unwrap();
+        (Box::new(Local::new(LinearRig::new(names, 4))), layout)
+    }
+
+    /// Two labels of 30 frames (one segment each): `a` moves along c0 with a small wobble
+    /// in c2, `b` along c1 with the same wobble.
+    pub(crate) fn labeled() -> LabeledFrames {
+        let n = 30;
+        let values: Vec<f64> = (0..2 * n)
+            .flat_map(|r| {
+                let t = (r % n) as f64 / n as f64;
+                let wobble = 0.05 * (7.0 * t).sin();
+                if r < n {
+                    [t, 0.0, wobble]
+                } else {
+                    [0.0, t, wobble]
+                }
+            })
+            .collect();
+        LabeledFrames {
+            segment_id: (0..2 * n).map(|r| (r / n) as i64).collect(),
+            label: (0..2 * n).map(|r| if r < n { "a".into() } else { "b".into() }).collect(),
+            frames: Frames {
+                fps: 24.0,
+                controls: (0..3).map(|j| format!("c{j}")).collect(),
+                clip: (0..2 * n).map(|r| format!("clip{}", r / n)).collect(),
+                frame: (0..2 * n).map(|r| (r % n) as i64).collect(),
+                time: (0..2 * n).map(|r| (r % n) as f64 / 24.0).collect(),
+                values,
+            },
+            masked_controls: vec![],
+        }
+    }
+
+    /// One-component PCAs: `a` keeps c0, `b` keeps c1 (unit weights, so z = p).
+    pub(crate) fn maps() -> Vec<(String, RigMap)> {
+        let w = [1.0; 3];
+        let map = |dir: [f64; 3], mean: [f64; 3]| RigMap::from_pca(&mean, &dir, &mean, &w).unwrap();
+        vec![("a".into(), map([1.0, 0.0, 0.0], [0.5, 0.0, 0.0])), ("b".into(), map([0.0, 1.0, 0.0], [0.0, 0.5, 0.0]))]
+    }
+
+    pub(crate) fn training() -> Training {
+        Training::measure(&rig(), &labeled(), vec![1.0; 3], &maps(), usize::MAX).unwrap()
+    }
+
+    /// A training frame is 0 from the raw set; projected through its own label's PCA it is
+    /// 0 from the floor set but not from the raw one (the PCA drops the wobble), in both
+    /// spaces.
+    #[test]
+    fn a_projected_training_frame_is_on_the_floor() {
+        let (t, lf, rig) = (training(), labeled(), rig());
+        let p = lf.frames.row(7).to_vec();
+        let m = meshes(&rig, std::slice::from_ref(&p)).unwrap();
+        let on_raw = t.raw.nearest(&t.z(&p), &m);
+        assert!(on_raw.scaled < 1e-12 && on_raw.mesh < 1e-5, "{on_raw:?}");
+        let (mut y, mut q) = (vec![0.0; 1], vec![0.0; 3]);
+        let map = &maps()[0].1;
+        map.project(&p, &mut y);
+        map.apply(&y, &mut q);
+        assert!((q[2]).abs() < 1e-12 && (q[0] - p[0]).abs() < 1e-12, "{q:?}");
+        let m = meshes(&rig, std::slice::from_ref(&q)).unwrap();
+        let floor = t.floor.nearest(&t.z(&q), &m);
+        assert!(floor.scaled < 1e-12 && floor.mesh < 1e-5, "{floor:?}");
+        let raw = t.raw.nearest(&t.z(&q), &m);
+        assert!(raw.scaled > 0.01 && raw.mesh > 0.01, "the wobble is gone: {raw:?}");
+    }
+
+    /// The reference values: the median scaled step is the median per-frame change, the
+    /// sets hold every frame.
+    #[test]
+    fn reference_values_are_those_of_the_frames() {
+        let t = training();
+        assert_eq!(t.raw.z.len(), 60 * 3);
+        assert_eq!(t.floor.mesh.len(), 60 * 12);
+        // Per frame: 1/30 along c0 (or c1) plus the wobble's change.
+        assert!(t.step > 1.0 / 30.0 && t.step < 1.6 / 30.0, "{}", t.step);
+        let err = Training::measure(&rig(), &labeled(), vec![1.0; 3], &maps(), 100).unwrap_err().to_string();
+        assert!(err.contains("--mesh-reference-limit"), "{err}");
+        let err = Training::measure(&rig(), &labeled(), vec![1.0; 3], &maps()[..1], usize::MAX).unwrap_err();
+        assert!(err.to_string().contains("no PCA model for label `b`"), "{err}");
+    }
+}

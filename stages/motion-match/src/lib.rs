@@ -1,0 +1,267 @@
+//! The motion-match stage: the transition benchmark's requests answered by two more
+//! systems, on the same start frames as every other system.
+//!
+//! - **motion matching** (Clavet 2016, Holden et al. 2020 — method.md §7.5): per training
+//!   frame a feature vector of the top `features` principal coordinates $y$ of the scaled
+//!   controls (one PCA over every labeled frame, so all labels share coordinates) at the
+//!   frame and 4, 8 and 12 frames ahead, plus $\dot y$, group-normalised; from the request
+//!   the database plays on and, every `search_interval` seconds (the first search at a
+//!   seeded phase of that timer), jumps to the best frame of the requested label; every jump
+//!   is inertialized in rig space by one critically damped spring per control with
+//!   half-life `halflife` ([`reprise_motionmatch`] has the search, the springs and the
+//!   switch rule).
+//! - **crossfade**, the floor every method must beat: on the request, the requested label's
+//!   frame nearest the current pose in scaled control space, crossfaded in over
+//!   `blend_frames` with the Motion Graphs blend weight while the current take plays on.
+//!
+//! Both play the request's start frame first (the frame at which it is asked: `asked` = 0),
+//! then their output, until `hold` seconds after the end of the blend into B, or fail after
+//! `timeout` seconds without reaching B. The database holds scaled controls
+//! $z_j = w_j p_j$ ($w$ the scale weights averaged over labels); a control no label's mesh
+//! depends on ($w_j = 0$) is carried with $w_j = 10^{-3}\min_{w_i>0} w_i$ so every output
+//! unscales exactly.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+use clap::Parser;
+use rand::{Rng, SeedableRng};
+use rayon::prelude::*;
+use reprise_artifact::curves::{self, Curves};
+use reprise_artifact::frames::LabeledFrames;
+use reprise_artifact::scales;
+use reprise_artifact::transitions::{self, Answer, Request};
+use reprise_motionmatch::{
+    crossfade, transition, ControllerSettings, Database, FeatureDb, FeatureParams, MatchError, Playback,
+    TransitionRequest,
+};
+use reprise_numerics::pca::{Pca, PcaParams};
+use reprise_stagekit::{StageError, StageResult};
+use serde::Serialize;
+
+/// `reprise-motion-match`: motion matching and crossfade answers to the benchmark.
+#[derive(Debug, Clone, Parser, Serialize)]
+#[command(name = "reprise-motion-match", version, about)]
+pub struct Args {
+    /// Input: the labeled frames (the database).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub labeled_frames: PathBuf,
+    /// Input: the scales (the scaled control space).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub scales: PathBuf,
+    /// Input: the transition requests.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub requests: PathBuf,
+    /// Output: motion matching's answers.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub mm_answers: PathBuf,
+    /// Output: motion matching's curves.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub mm_curves: PathBuf,
+    /// Output: the crossfade's answers.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub crossfade_answers: PathBuf,
+    /// Output: the crossfade's curves.
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub crossfade_curves: PathBuf,
+    /// Principal coordinates of the scaled controls per feature time (q).
+    #[arg(long, default_value_t = 8)]
+    pub features: usize,
+    /// Seconds between motion matching's searches.
+    #[arg(long, default_value_t = 0.1)]
+    pub search_interval: f64,
+    /// Inertialization half-life, seconds (0: hard cuts).
+    #[arg(long, default_value_t = 0.1)]
+    pub halflife: f64,
+    /// Blend length of the crossfade, and the blend phase of both (frames; = the others').
+    #[arg(long, default_value_t = 12)]
+    pub blend_frames: usize,
+    /// Seconds played after the blend into B.
+    #[arg(long, default_value_t = 0.5)]
+    pub hold: f64,
+    /// Seconds without reaching B after which a request fails.
+    #[arg(long, default_value_t = 10.0)]
+    pub timeout: f64,
+    /// Seed of the search timer's phase at each request (+ request id).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Only validate the flags and exit.
+    #[arg(long)]
+    #[serde(skip)]
+    pub check: bool,
+}
+
+/// What the stage answered: per request, (motion matching's, the crossfade's) answer.
+pub type Answered = Vec<(Request, [Answer; 2])>;
+
+/// One system's answer and frames (label, controls) to one request.
+type Reply = (Answer, Vec<(String, Vec<f64>)>);
+
+impl Args {
+    fn validate(&self) -> StageResult<()> {
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        if self.features == 0
+            || !positive(self.search_interval)
+            || !(self.halflife.is_finite() && self.halflife >= 0.0)
+            || !(self.hold.is_finite() && self.hold >= 0.0)
+            || !positive(self.timeout)
+            || self.timeout > 3600.0
+        {
+            return Err(StageError::Config(
+                "need --features >= 1, --search-interval > 0, --halflife >= 0, --hold >= 0, 0 < --timeout <= 3600"
+                    .into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The database: labeled frames as scaled controls, with the weights that unscale them.
+struct Corpus {
+    db: Database,
+    feats: FeatureDb,
+    weight: Vec<f64>,
+    labels: Vec<String>,
+    /// Row of (segment id, frame).
+    rows: HashMap<(i64, i64), usize>,
+}
+
+impl Corpus {
+    fn build(args: &Args, labeled: &LabeledFrames, weight: Vec<f64>) -> StageResult<Self> {
+        let n = labeled.frames.rows();
+        let c = labeled.frames.controls.len();
+        let smallest = weight.iter().copied().filter(|w| *w > 0.0).fold(f64::INFINITY, f64::min);
+        if !smallest.is_finite() {
+            return Err(StageError::Input(format!(
+                "{}: no control has a positive scale weight (the mesh depends on none); rerun scale",
+                args.scales.display()
+            )));
+        }
+        let weight: Vec<f64> = weight.iter().map(|&w| if w > 0.0 { w } else { 1e-3 * smallest }).collect();
+        let z: Vec<f64> = (0..n)
+            .flat_map(|r| labeled.frames.row(r).iter().zip(&weight).map(|(p, w)| p * w).collect::<Vec<_>>())
+            .collect();
+        let mut labels: Vec<String> = Vec::new();
+        let label_ids: Vec<u32> = labeled
+            .label
+            .iter()
+            .map(|l| match labels.iter().position(|x| x == l) {
+                Some(i) => i as u32,
+                None => {
+                    labels.push(l.clone());
+                    (labels.len() - 1) as u32
+                }
+            })
+            .collect();
+        let mut segments = vec![0u32; n];
+        for (i, &(s, e)) in labeled.segment_runs().iter().enumerate() {
+            segments[s..e].iter_mut().for_each(|v| *v = i as u32);
+        }
+        let bad = |e: MatchError| StageError::Input(format!("{}: {e}", args.labeled_frames.display()));
+        let db = Database::new(z.clone(), c, label_ids, &segments, labeled.frames.fps).map_err(bad)?;
+        let params = PcaParams { variance: 1.0, min_components: 1, max_components: args.features };
+        let pca = Pca::fit(&z, c, &params).map_err(|e| StageError::Input(format!("feature PCA: {e}")))?;
+        let q = pca.kept;
+        let y: Vec<f64> = z.chunks_exact(c).flat_map(|row| pca.project(row, q)).collect();
+        let feats = FeatureDb::build(&db, &y, q, &FeatureParams::default()).map_err(bad)?;
+        let rows = (0..n).map(|r| ((labeled.segment_id[r], labeled.frames.frame[r]), r)).collect();
+        Ok(Self { db, feats, weight, labels, rows })
+    }
+
+    /// Controls $p = z / w$ of a scaled row.
+    fn unscale(&self, z: &[f64]) -> Vec<f64> {
+        z.iter().zip(&self.weight).map(|(z, w)| z / w).collect()
+    }
+
+    /// A playback as an answer: the start frame (asked), then the output up to `after`
+    /// frames past the first frame of B; none if B was not reached.
+    fn reply(&self, start: usize, out: Result<Playback, MatchError>, after: usize, to: &str) -> Reply {
+        let out = match out {
+            Ok(p) => p,
+            Err(e) => return (Answer::failed(e.to_string()), vec![]),
+        };
+        let Some(l) = out.latency else {
+            return (Answer::failed(format!("did not reach `{to}` within the time-out")), vec![]);
+        };
+        let end = (l + after).min(out.len());
+        let mut frames = vec![(self.labels[self.db.label(start) as usize].clone(), self.unscale(self.db.row(start)))];
+        frames.extend((0..end).map(|k| {
+            (self.labels[out.labels[k] as usize].clone(), self.unscale(&out.z[k * out.dim..(k + 1) * out.dim]))
+        }));
+        (Answer::reached(0, l as i64 + 1), frames)
+    }
+}
+
+/// Runs the stage; returns the requests with both systems' answers.
+pub fn run(args: &Args) -> StageResult<Option<Answered>> {
+    args.validate()?;
+    if args.check {
+        return Ok(None);
+    }
+    let provenance = reprise_stagekit::provenance("motion-match", env!("CARGO_PKG_VERSION"), args)
+        .with_input("labeled_frames", &args.labeled_frames)?
+        .with_input("scales", &args.scales)?
+        .with_input("requests", &args.requests)?;
+    let labeled = LabeledFrames::read(&args.labeled_frames)?;
+    let weight = scales::mean_weights(&scales::read(&args.scales)?, &labeled.frames.controls);
+    let reqs = transitions::read_requests(&args.requests)?;
+    let corpus = Corpus::build(args, &labeled, weight)?;
+    let fps = labeled.frames.fps;
+    let timeout = (args.timeout * fps).ceil() as usize;
+    let after = args.blend_frames + (args.hold * fps).round() as usize;
+    let settings =
+        ControllerSettings { search_interval: args.search_interval, halflife: args.halflife, exclude_radius: None };
+    let interval = settings.interval_frames(fps);
+    let bar = reprise_stagekit::progress(reqs.len() as u64, "motion-match");
+    let answers: Vec<StageResult<(Request, [Reply; 2])>> = reqs
+        .par_iter()
+        .map(|r| {
+            let start = *corpus.rows.get(&(r.segment_id, r.frame)).ok_or_else(|| {
+                StageError::Input(format!(
+                    "{}: request {} starts at segment {} frame {}, which {} does not have; rerun transitions",
+                    args.requests.display(),
+                    r.request,
+                    r.segment_id,
+                    r.frame,
+                    args.labeled_frames.display()
+                ))
+            })?;
+            let Some(target) = corpus.labels.iter().position(|l| *l == r.to) else {
+                let none = || (Answer::failed(format!("no frame of `{}` in the database", r.to)), vec![]);
+                return Ok((r.clone(), [none(), none()]));
+            };
+            let target = target as u32;
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed.wrapping_add(r.request as u64));
+            let first_search = rng.gen_range(0..interval);
+            let request = TransitionRequest { start, target, first_search, frames: timeout };
+            let mm = corpus.reply(start, transition(&corpus.db, &corpus.feats, &request, &settings), after, &r.to);
+            let fade =
+                corpus.reply(start, crossfade(&corpus.db, start, target, args.blend_frames, timeout), after, &r.to);
+            bar.inc(1);
+            Ok((r.clone(), [mm, fade]))
+        })
+        .collect();
+    bar.finish_and_clear();
+    let answers: Vec<(Request, [Reply; 2])> = answers.into_iter().collect::<StageResult<_>>()?;
+    let outputs = [
+        ("motion-matching", &args.mm_answers, &args.mm_curves),
+        ("crossfade", &args.crossfade_answers, &args.crossfade_curves),
+    ];
+    for (s, (system, answers_path, curves_path)) in outputs.into_iter().enumerate() {
+        let rows: Vec<(i64, Answer)> = answers.iter().map(|(r, a)| (r.request, a[s].0.clone())).collect();
+        let mut c = Curves { fps, controls: labeled.frames.controls.clone(), ..Default::default() };
+        for (r, a) in &answers {
+            c.push_script(&format!("r{}", r.request), a[s].1.iter().map(|(l, p)| (l.as_str(), p.as_slice())));
+        }
+        transitions::write_answers(answers_path, system, &rows, &provenance)?;
+        curves::write(curves_path, &c, &provenance)?;
+    }
+    Ok(Some(answers.into_iter().map(|(r, [a, b])| (r, [a.0, b.0])).collect()))
+}
