@@ -69,8 +69,17 @@ fn cell(m: Option<&Metric>) -> String {
     }
 }
 
-/// The best system on `metric` overall: (shown name, whether its CI overlaps the runner-up's).
-pub fn best<'a>(m: &[Metric], ctx: &'a Context<'_>, metric: &str) -> Option<(&'a str, bool)> {
+/// Who is best on `metric` overall.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Verdict<'a> {
+    /// One system, and whether its CI overlaps the runner-up's.
+    Best(&'a str, bool),
+    /// Several systems share the best value exactly.
+    Tie(Vec<&'a str>),
+}
+
+/// The best system on `metric` overall (`None`: not ranked, or fewer than two measured).
+pub fn best<'a>(m: &[Metric], ctx: &'a Context<'_>, metric: &str) -> Option<Verdict<'a>> {
     let lower = lower_is_better(metric)?;
     let mut v: Vec<(&str, &Metric)> = ctx
         .systems
@@ -82,12 +91,17 @@ pub fn best<'a>(m: &[Metric], ctx: &'a Context<'_>, metric: &str) -> Option<(&'a
         return None;
     }
     v.sort_by(|a, b| if lower { a.1.value.total_cmp(&b.1.value) } else { b.1.value.total_cmp(&a.1.value) });
+    let top = v[0].1.value;
+    let tied: Vec<&str> = v.iter().take_while(|(_, x)| x.value == top).map(|(s, _)| *s).collect();
+    if tied.len() > 1 {
+        return Some(Verdict::Tie(tied));
+    }
     let (a, b) = (v[0].1, v[1].1);
     let overlap = match (a.ci_low, a.ci_high, b.ci_low, b.ci_high) {
         (Some(al), Some(ah), Some(bl), Some(bh)) => al <= bh && bl <= ah,
         _ => false,
     };
-    Some((v[0].0, overlap))
+    Some(Verdict::Best(v[0].0, overlap))
 }
 
 /// The report.
@@ -111,9 +125,10 @@ fn conclusions(s: &mut String, m: &[Metric], ctx: &Context<'_>) {
         let wins: Vec<String> = OVERALL
             .iter()
             .filter_map(|name| match best(m, ctx, name) {
-                Some((b, overlap)) if b == shown => {
+                Some(Verdict::Best(b, overlap)) if b == shown => {
                     Some(if overlap { format!("{name} (CI overlaps the runner-up)") } else { name.to_string() })
                 }
+                Some(Verdict::Tie(t)) if t.contains(&shown.as_str()) => Some(format!("{name} (tied)")),
                 _ => None,
             })
             .collect();
@@ -126,8 +141,8 @@ fn conclusions(s: &mut String, m: &[Metric], ctx: &Context<'_>) {
     let _ = writeln!(
         s,
         "- Systems that replay training frames have a raw plausibility floor of 0 away from their blends; reprise's poses \
-         live in each label's PCA subspace, so compare `plausibility_floor_*` (both against PCA-projected training frames) \
-         for like with like.\n"
+         live in each label's PCA subspace, so compare `plausibility_floor_*` (0 for a training frame and for its PCA \
+         projection alike) for like with like.\n"
     );
 }
 
@@ -149,8 +164,9 @@ fn overall(s: &mut String, m: &[Metric], ctx: &Context<'_>) {
             .collect();
         let verdict = match best(m, ctx, name) {
             _ if name == "variety" => "not ranked (read beside plausibility)".to_string(),
-            Some((b, true)) => format!("{b} (CIs overlap)"),
-            Some((b, false)) => b.to_string(),
+            Some(Verdict::Best(b, true)) => format!("{b} (CIs overlap)"),
+            Some(Verdict::Best(b, false)) => b.to_string(),
+            Some(Verdict::Tie(t)) => format!("tie: {}", t.join(", ")),
             None => "–".into(),
         };
         let _ = writeln!(s, "| `{name}` | {} | {verdict} |", cells.join(" | "));
@@ -300,9 +316,9 @@ fn definitions(s: &mut String, ctx: &Context<'_>) {
          end of the blend, divided by the training data's 95th percentile of the same quantity ({a95:.4} mesh units/s², \
          {j95:.4} mesh units/s³).\n\
          - `plausibility_<reference>_<space>[_<phase>]`: per played frame (every {st}-th), the distance to the nearest \
-         reference pose. Reference `raw`: the training frames; `floor`: every training frame projected through its own \
-         label's PCA (the poses a PCA-based model can reach at best — a training frame projected through its own PCA \
-         scores 0). Space `scaled`: Euclidean in scaled control space, divided by the median distance between consecutive \
+         reference pose. Reference `raw`: the training frames; `floor` (floor-matched): the nearer of a training frame \
+         and that frame projected through its own label's PCA, so a replayed frame and a PCA-reproduced one both score 0 \
+         and neither representation is charged for its own floor. Space `scaled`: Euclidean in scaled control space, divided by the median distance between consecutive \
          training frames ({step:.4}); `mesh`: RMS vertex distance to the nearest of the {mc} nearest in scaled space, \
          divided by the median RMS vertex motion between consecutive training frames ({ms:.4} mesh units). Without a \
          phase: reach, blend and settle together.\n\

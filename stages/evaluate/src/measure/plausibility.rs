@@ -1,7 +1,8 @@
 //! Plausibility: how far a played pose is from the nearest training pose, measured twice —
-//! against the raw training frames and against the training frames projected through
-//! their own label's PCA (the floor a PCA-based model can reach) — in scaled control space
-//! and on the mesh, and kept apart by phase.
+//! against the raw training frames, and floor-matched: against the nearer of a training
+//! frame and a training frame projected through its own label's PCA, so replaying a frame
+//! and reproducing its PCA projection both score 0 — in scaled control space and on the
+//! mesh, and kept apart by phase.
 //!
 //! Units: a distance in scaled control space is divided by the median distance between
 //! consecutive training frames there ([`Training::step`]); an RMS vertex distance by the
@@ -27,7 +28,8 @@ pub enum Space {
 pub enum Reference {
     /// The training frames.
     Raw,
-    /// The training frames projected through their own label's PCA.
+    /// The training frames and their projections through their own label's PCA (the
+    /// nearer of the two).
     Floor,
 }
 
@@ -84,10 +86,8 @@ impl Plausibility {
         let dim = training.dim;
         for t in (0..controls.len()).step_by(stride.max(1)) {
             let Some(phase) = phases.iter().position(|r| r.contains(&t)) else { continue };
-            let z = training.z(&controls[t]);
-            let m = &meshes[t * dim..(t + 1) * dim];
-            for (ri, set) in [&training.raw, &training.floor].into_iter().enumerate() {
-                let near = set.nearest(&z, m);
+            let (raw, floor) = training.distances(&controls[t], &meshes[t * dim..(t + 1) * dim]);
+            for (ri, near) in [raw, floor].into_iter().enumerate() {
                 out.values[ri][0][phase].push(near.scaled / training.step);
                 out.values[ri][1][phase].push(near.mesh / training.mesh_step);
             }
