@@ -265,3 +265,129 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     }
     Ok(Some(answers.into_iter().map(|(r, [a, b])| (r, [a.0, b.0])).collect()))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use reprise_artifact::frames::Frames;
+    use reprise_artifact::provenance::Provenance;
+    use reprise_artifact::scales::Scale;
+
+    /// Two labels, two takes of 60 frames each, two controls tracing phase-shifted sines
+    /// (`b` is `a` a quarter period on), so every pose of `a` has a near twin in `b`.
+    fn write_inputs(dir: &std::path::Path, requests: &[Request]) -> Args {
+        let n = 60;
+        let values: Vec<f64> = (0..2 * n)
+            .flat_map(|r| {
+                let t = (r % n) as f64 * 0.2 + if r < n { 0.0 } else { 1.5 };
+                [t.sin(), t.cos()]
+            })
+            .collect();
+        let lf = LabeledFrames {
+            segment_id: (0..2 * n).map(|r| (r / n) as i64).collect(),
+            label: (0..2 * n).map(|r| if r < n { "a".into() } else { "b".into() }).collect(),
+            frames: Frames {
+                fps: 24.0,
+                controls: vec!["c0".into(), "c1".into()],
+                clip: (0..2 * n).map(|r| format!("clip{}", r / n)).collect(),
+                frame: (0..2 * n).map(|r| (r % n) as i64).collect(),
+                time: (0..2 * n).map(|r| (r % n) as f64 / 24.0).collect(),
+                values,
+            },
+            masked_controls: vec![],
+        };
+        let prov = Provenance::new("test", "0", serde_json::json!({}));
+        let p = |f: &str| dir.join(f).display().to_string();
+        lf.write(std::path::Path::new(&p("lf.parquet")), &prov).unwrap();
+        let scale = |label: &str, control: &str| Scale {
+            label: label.into(),
+            control: control.into(),
+            mean: 0.0,
+            std: 1.0,
+            weight: 2.0,
+            residual: 0.0,
+            used: true,
+            reason: String::new(),
+        };
+        let rows: Vec<Scale> = ["a", "b"].iter().flat_map(|l| ["c0", "c1"].map(|c| scale(l, c))).collect();
+        reprise_artifact::scales::write(std::path::Path::new(&p("scales.parquet")), &rows, &prov).unwrap();
+        transitions::write_requests(std::path::Path::new(&p("requests.parquet")), requests, &prov).unwrap();
+        Args::parse_from([
+            "x",
+            "--labeled-frames",
+            &p("lf.parquet"),
+            "--scales",
+            &p("scales.parquet"),
+            "--requests",
+            &p("requests.parquet"),
+            "--mm-answers",
+            &p("mm.parquet"),
+            "--mm-curves",
+            &p("mmc.parquet"),
+            "--crossfade-answers",
+            &p("cf.parquet"),
+            "--crossfade-curves",
+            &p("cfc.parquet"),
+            "--features",
+            "2",
+        ])
+    }
+
+    fn request(id: i64, to: &str, segment_id: i64, frame: i64) -> Request {
+        Request { request: id, from: "a".into(), to: to.into(), segment_id, clip: "clip0".into(), frame }
+    }
+
+    /// Both systems reach B; their curves start at the request's frame (asked = 0), hold
+    /// the first frame of B at `latency`, unscale to the controls' own values (a frame of B
+    /// replayed after the blend is a training frame exactly), and carry the producing label.
+    #[test]
+    fn both_systems_answer_from_the_start_frame() {
+        let dir = tempfile::tempdir().unwrap();
+        let args = write_inputs(dir.path(), &[request(0, "b", 0, 10), request(1, "a", 0, 20)]);
+        let answered = run(&args).unwrap().unwrap();
+        assert_eq!(answered.len(), 2);
+        let lf = LabeledFrames::read(&args.labeled_frames).unwrap();
+        for (answers, curves_path) in
+            [(&args.mm_answers, &args.mm_curves), (&args.crossfade_answers, &args.crossfade_curves)]
+        {
+            let a = transitions::read_answers(answers).unwrap();
+            let c = curves::read(curves_path).unwrap();
+            let rows: Vec<usize> = (0..c.script.len()).filter(|&r| c.script[r] == "r0").collect();
+            assert_eq!(
+                &c.values[rows[0] * 2..rows[0] * 2 + 2],
+                lf.frames.row(10),
+                "{}: starts at the request",
+                a.system
+            );
+            let l = a.get(0).unwrap().latency.unwrap() as usize;
+            assert!(l >= 1 && c.model[rows[l]] == "b" && c.model[rows[l - 1]] == "a", "{}: latency {l}", a.system);
+            // The last frame replays B: it is one of B's training frames (after the blend).
+            let last = &c.values[rows[rows.len() - 1] * 2..rows[rows.len() - 1] * 2 + 2];
+            let nearest = (60..120)
+                .map(|r| lf.frames.row(r).iter().zip(last).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max))
+                .fold(f64::INFINITY, f64::min);
+            assert!(nearest < 0.02, "{}: settles on B's frames ({nearest})", a.system);
+            // Asked for its own label: reached at once.
+            assert!(a.get(1).unwrap().latency.is_some());
+        }
+    }
+
+    /// A request starting at a frame the labeled frames do not have is refused, naming it.
+    #[test]
+    fn requests_of_another_corpus_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let args = write_inputs(dir.path(), &[request(7, "b", 5, 3)]);
+        let err = run(&args).unwrap_err().to_string();
+        assert!(err.contains("request 7 starts at segment 5 frame 3") && err.contains("rerun transitions"), "{err}");
+        assert!(!args.mm_answers.exists(), "nothing written");
+    }
+
+    /// Bad parameters fail the check.
+    #[test]
+    fn bad_parameters_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut args = write_inputs(dir.path(), &[]);
+        args.timeout = 0.0;
+        assert!(run(&args).unwrap_err().to_string().contains("--timeout"));
+    }
+}
