@@ -70,7 +70,9 @@ fn robot_expressive_through_gplvm() {
     }
     // Its own comparison report.
     let md = p.read("reports/robot-expressive/report.md");
-    assert!(md.contains("Motion Graphs is better on"), "{md}");
+    for system in ["reprise", "Motion Graphs", "Motion matching", "Crossfade"] {
+        assert!(md.contains(&format!("**{system}** is best on")), "{md}");
+    }
     assert!(p.read("reports/robot-expressive/index.html").contains("id='coverage'"));
     // The character file is the rig: a file whose content differs from what ingest read
     // is refused, not silently evaluated.
