@@ -71,6 +71,19 @@ pub fn provenance(stage: &str, version: &str, params: &impl Serialize) -> Proven
     Provenance::new(stage, version, params)
 }
 
+/// One line on stderr per system of a transition benchmark stage: how many of the
+/// requests it answered and the median latency (frames) of those answered.
+pub fn print_answer_summary<'a>(system: &str, answers: impl IntoIterator<Item = &'a reprise_artifact::transitions::Answer>) {
+    let (mut latencies, mut total) = (Vec::new(), 0);
+    for a in answers {
+        total += 1;
+        latencies.extend(a.latency);
+    }
+    latencies.sort_unstable();
+    let median = latencies.get(latencies.len() / 2).map_or("-".to_string(), |v| v.to_string());
+    eprintln!("{system:<16} answered {:>4} / {total:<4} requests, median latency {median} frames", latencies.len());
+}
+
 /// A progress bar on stderr (hidden when stderr is not a terminal).
 pub fn progress(len: u64, message: &str) -> ProgressBar {
     let bar = ProgressBar::new(len);

@@ -123,10 +123,15 @@ struct Baseline<'a> {
 /// reprise's frames under another seed.
 struct Answers {
     request: Request,
-    /// Per system (reprise, baseline): its answer and its frames under the request's seed
-    /// and under the reseeded one.
-    systems: [(Answer, Result<Played, String>, Result<Played, String>); 2],
+    /// Per system (reprise, baseline).
+    systems: [Reply; 2],
 }
+
+/// One system's answer and its frames under the request's seed and under the reseeded one.
+type Reply = (Answer, Result<Played, String>, Result<Played, String>);
+
+/// What the stage answered: per request, (reprise's, the baseline's) answer.
+pub type Answered = Vec<(Request, [Answer; 2])>;
 
 /// The systems this stage answers with, in the order of [`Answers::systems`].
 const SYSTEMS: [&str; 2] = ["reprise", "baseline"];
@@ -201,7 +206,7 @@ fn latency(p: &Played, to: &str, request: usize) -> Option<i64> {
 }
 
 /// Runs the stage; returns the requests with each system's answers.
-pub fn run(args: &Args) -> StageResult<Option<Vec<(Request, [Answer; 2])>>> {
+pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     if args.per_pair == 0
         || args.hold.is_nan()
         || args.hold < 0.0
