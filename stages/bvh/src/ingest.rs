@@ -105,7 +105,7 @@ pub fn resample_limited(bvh: &Bvh, clip: &str, fps: f64, max_frames: usize) -> R
     let exact = (duration * fps + 1e-9).floor() + 1.0;
     let specs = bvh.controls();
     let width = specs.len();
-    if !(exact <= max_frames as f64) || (exact as usize).checked_mul(width).is_none() {
+    if exact.is_nan() || exact > max_frames as f64 || (exact as usize).checked_mul(width).is_none() {
         return Err(error(format!(
             "{} frames of {} s make {duration:.6e} s, {exact:.0} frames at {fps} fps: more than the limit of \
              {max_frames} (ingest --max-frames); is `Frame Time:` right?",

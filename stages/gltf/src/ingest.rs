@@ -91,7 +91,7 @@ fn read_and_sample(path: &Path, fps: f64, max_frames: usize) -> Result<GltfCurve
     let frames = |c: &[Channel]| (duration(c) * fps).round() + 1.0;
     let total: f64 = read.iter().map(|(_, c)| frames(c)).sum();
     let width = layout.defaults().len().max(1) as f64;
-    if !(total <= max_frames as f64 && total * width <= usize::MAX as f64 / 8.0) {
+    if total.is_nan() || total > max_frames as f64 || total * width > usize::MAX as f64 / 8.0 {
         if let Some((name, c)) = read.iter().max_by(|a, b| frames(&a.1).total_cmp(&frames(&b.1))) {
             return Err(GltfError::TooLong {
                 path: path.to_path_buf(),

@@ -41,14 +41,14 @@ const TOKENS: &[&str] = &[
 /// Loads `text` as `/project/pipeline.toml`; an error must name that file.
 fn check(text: String) {
     let result = within(LIMIT, move || {
-        Pipeline::parse(&text, "pipeline.toml", Path::new("/project")).and_then(|p| {
+        let load = |text: &str| -> Result<usize, Box<reprise_runner::Error>> {
+            let p = Pipeline::parse(text, "pipeline.toml", Path::new("/project"))?;
             reprise_runner::guard::check_declared(&p)?;
-            let dag = Dag::build(&p)?;
-            Ok(dag.order().len())
-        })
+            Ok(Dag::build(&p)?.order().len())
+        };
+        load(&text).map_err(|e| e.to_string())
     });
-    if let Err(e) = result {
-        let msg = e.to_string();
+    if let Err(msg) = result {
         assert!(msg.contains("pipeline.toml") || msg.contains("stage"), "{msg}");
     }
 }

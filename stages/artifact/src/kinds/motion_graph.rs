@@ -380,7 +380,8 @@ mod tests {
             check_edges(&nodes, Path::new("n"), edges, Path::new("e"), w).map_err(|e| e.to_string())
         };
         check(&good, Some(2)).unwrap();
-        let cases: [(&dyn Fn(&mut Vec<Edge>), Option<usize>, &str); 6] = [
+        type Case<'a> = (&'a dyn Fn(&mut Vec<Edge>), Option<usize>, &'a str);
+        let cases: [Case; 6] = [
             (&|e| e[6].from = 3, Some(2), "does not fit a blend window of 2"),
             (&|e| e[6].to = 5, Some(2), "does not fit a blend window of 2"),
             (&|_| {}, Some(3), "costing 2 frames does not fit a blend window of 3"),
