@@ -3,6 +3,7 @@
 
 mod util;
 
+mod bad_inputs;
 mod bvh_pipeline;
 mod default_pipeline;
 mod external_rig;

@@ -56,6 +56,15 @@ impl Project {
     }
 }
 
+impl Project {
+    /// Runs the stage binary `bin` (e.g. `reprise-motion-graph`) of this build directly,
+    /// in the project, as a user calling it by hand would.
+    pub fn stage(&self, bin: &str, args: &[&str]) -> Run {
+        let exe = Path::new(env!("CARGO_BIN_EXE_reprise")).with_file_name(bin);
+        Run { output: Command::new(exe).args(args).current_dir(self.dir.path()).output().unwrap() }
+    }
+}
+
 /// The outcome of one command.
 pub struct Run {
     pub output: Output,

@@ -44,6 +44,10 @@ pub enum ArtifactError {
     /// The decoded content does not match the checksum written with it.
     #[error("{path}: the file is corrupt: its data does not match the checksum written with it (a damaged disk, copy or download); rerun the stage that produced it")]
     Corrupt { path: PathBuf },
+    /// Two artifacts given together do not belong together (made by different runs, or
+    /// one indexes rows the other does not have); the message says how, and what to rerun.
+    #[error("{path} and {other} do not belong together: {message}")]
+    Mismatch { path: PathBuf, other: PathBuf, message: String },
     /// The data violates an invariant of its kind (stated in the message).
     #[error("{path}: {message}")]
     Invalid { path: PathBuf, message: String },

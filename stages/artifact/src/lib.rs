@@ -20,6 +20,7 @@
 //! is written atomically ([`table::write_atomic`]).
 #![warn(missing_docs)]
 
+pub mod contain;
 pub mod error;
 pub mod provenance;
 pub mod table;

@@ -128,6 +128,27 @@ pub fn check_made_from(artifact: &Path, given: &Provenance) -> Result<()> {
     Ok(())
 }
 
+/// Refuses two artifacts that one run of a stage must have written together (e.g. the
+/// motion graph's nodes and edges, or the GPLVM's models and latents) but that come from
+/// different runs: the stage, its parameters and its input files recorded in each must be
+/// equal, as must every metadata key in `also`. The error names both files and the stage
+/// to rerun.
+pub fn check_same_run(path: &Path, other: &Path, also: &[&str]) -> Result<()> {
+    let (a, b) = (crate::table::metadata_of(path)?, crate::table::metadata_of(other)?);
+    let keys = [KEY_STAGE, KEY_PARAMS, KEY_INPUTS];
+    if let Some(key) = keys.iter().chain(also).find(|k| a.get(**k) != b.get(**k)) {
+        let stage = a.get(KEY_STAGE).map_or("the producing stage", String::as_str);
+        return Err(ArtifactError::Mismatch {
+            path: path.into(),
+            other: other.into(),
+            message: format!(
+                "they were written by different runs (their `{key}` differ); rerun `{stage}` to write both"
+            ),
+        });
+    }
+    Ok(())
+}
+
 /// Serialises a JSON value with object keys sorted, so equal parameters hash equally.
 pub fn canonical_json(value: &serde_json::Value) -> String {
     // serde_json's default `Map` is a BTreeMap: keys come out sorted at every level.

@@ -112,11 +112,21 @@ pub struct Args {
     pub check: bool,
 }
 
+/// The most starts of each kind per candidate (each is an SCG run).
+pub const MAX_STARTS: usize = 1000;
+/// The most SCG iterations per start.
+pub const MAX_ITERS: usize = 100_000;
+
 impl Args {
     fn validate(&self) -> StageResult<()> {
         let cfg = |m: &str| Err(StageError::Config(m.into()));
-        if self.stride == 0 || self.max_iters == 0 || self.nearest_starts + self.random_starts == 0 {
+        if self.stride == 0 || self.max_iters == 0 || self.nearest_starts.saturating_add(self.random_starts) == 0 {
             return cfg("--stride and --max-iters must be at least 1, and there must be at least one start");
+        }
+        if self.nearest_starts > MAX_STARTS || self.random_starts > MAX_STARTS || self.max_iters > MAX_ITERS {
+            return Err(StageError::Config(format!(
+                "--nearest-starts and --random-starts may be at most {MAX_STARTS}, --max-iters at most {MAX_ITERS}"
+            )));
         }
         match self.threshold {
             Threshold::Quantile if !(self.quantile > 0.0 && self.quantile <= 1.0) => {
@@ -174,6 +184,11 @@ pub fn frame_motion(
             let rows: Vec<Vec<f64>> = (at..to).map(|r| lf.frames.row(r).to_vec()).collect();
             let m = meshes(rig, &rows)?;
             let dim = m.len() / rows.len();
+            if dim == 0 {
+                return Err(StageError::Input(
+                    "the rig has no vertices: per-frame mesh motion (--threshold mesh-motion) needs a mesh".into(),
+                ));
+            }
             for mesh in m.chunks_exact(dim) {
                 if let Some(p) = &prev {
                     steps.push(mesh_rmse(p, mesh));
@@ -263,6 +278,9 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
     if let Some(l) = &args.labeled_frames {
         provenance = provenance.with_input("labeled_frames", l)?;
     }
+    // The models must have been fit on these labeled frames and controls (the PCA and
+    // scales are checked by `reprise_model::load`).
+    reprise_artifact::provenance::check_made_from(&args.gplvm_models, &provenance)?;
     let Models { controls, models } = reprise_model::load(&args.gplvm_models, &args.pca_models, &args.scales)?;
     if models.len() < 2 {
         return Err(StageError::Input(format!(

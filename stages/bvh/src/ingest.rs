@@ -47,11 +47,20 @@ impl BvhCurves {
     }
 }
 
+/// The default bound on resampled frames ([`resample_limited`]): the same as ingest's
+/// `--max-frames` default.
+pub const MAX_FRAMES: usize = 1_000_000;
+
 /// Reads a BVH file and resamples it to `fps`; the clip is named by the file stem.
 pub fn ingest(path: &Path, fps: f64) -> Result<BvhCurves, BvhError> {
+    ingest_limited(path, fps, MAX_FRAMES)
+}
+
+/// [`ingest`], refusing a clip that would resample to more than `max_frames` frames.
+pub fn ingest_limited(path: &Path, fps: f64, max_frames: usize) -> Result<BvhCurves, BvhError> {
     let bvh = parse::read(path)?;
     let clip = path.file_stem().map_or_else(|| bvh.file.clone(), |s| s.to_string_lossy().into_owned());
-    resample(&bvh, &clip, fps)
+    resample_limited(&bvh, &clip, fps, max_frames)
 }
 
 /// The local rotation of `node` in one source frame.
@@ -72,8 +81,17 @@ fn frame_translation(node: &Node, frame: &[f64]) -> [f64; 3] {
     t
 }
 
-/// Resamples parsed BVH motion to `fps` (see the module documentation).
+/// Resamples parsed BVH motion to `fps` (see the module documentation), at most
+/// [`MAX_FRAMES`] frames.
 pub fn resample(bvh: &Bvh, clip: &str, fps: f64) -> Result<BvhCurves, BvhError> {
+    resample_limited(bvh, clip, fps, MAX_FRAMES)
+}
+
+/// [`resample`] with a bound on the output frames. The count comes from the file
+/// (`Frames:` × `Frame Time:`), so it is checked before anything is allocated: a typo in
+/// the frame time (`1000` for `0.001`) is an error naming the line, not an exhausted
+/// machine.
+pub fn resample_limited(bvh: &Bvh, clip: &str, fps: f64, max_frames: usize) -> Result<BvhCurves, BvhError> {
     let error = |reason: String| BvhError::Resample { file: bvh.file.clone(), line: bvh.frames_line, reason };
     if !(fps.is_finite() && fps > 0.0) {
         return Err(error(format!("the target rate {fps} fps is not a positive number")));
@@ -84,10 +102,17 @@ pub fn resample(bvh: &Bvh, clip: &str, fps: f64) -> Result<BvhCurves, BvhError> 
     let source_fps = bvh.source_fps();
     let last = bvh.frames - 1;
     let duration = last as f64 / source_fps;
-    let count = (duration * fps + 1e-9).floor() as usize + 1;
-
+    let exact = (duration * fps + 1e-9).floor() + 1.0;
     let specs = bvh.controls();
     let width = specs.len();
+    if exact.is_nan() || exact > max_frames as f64 || (exact as usize).checked_mul(width).is_none() {
+        return Err(error(format!(
+            "{} frames of {} s make {duration:.6e} s, {exact:.0} frames at {fps} fps: more than the limit of \
+             {max_frames} (ingest --max-frames); is `Frame Time:` right?",
+            bvh.frames, bvh.frame_time
+        )));
+    }
+    let count = exact as usize;
     let mut values = vec![0.0; count * width];
     // Controls come in triples; the previous output frame's vector per triple.
     let mut prev = vec![[0.0; 3]; width / 3];

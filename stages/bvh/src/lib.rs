@@ -26,7 +26,7 @@ pub mod rotation;
 mod skeleton;
 
 pub use error::BvhError;
-pub use ingest::{ingest, resample, BvhCurves, ControlInfo};
-pub use parse::{parse, read};
+pub use ingest::{ingest, ingest_limited, resample, resample_limited, BvhCurves, ControlInfo, MAX_FRAMES};
+pub use parse::{parse, read, MAX_DEPTH};
 pub use rig::BvhRig;
 pub use skeleton::{Bvh, Channel, ControlKind, ControlSpec, Node};

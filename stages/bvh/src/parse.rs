@@ -13,6 +13,11 @@ use std::path::Path;
 use crate::error::BvhError;
 use crate::skeleton::{Bvh, Channel, Node};
 
+/// How deep joints may nest. Real skeletons are 5–30 joints deep; the parser recurses per
+/// level, so an absurd depth (a generated or corrupted file) is refused by this bound
+/// instead of overflowing the stack.
+pub const MAX_DEPTH: usize = 256;
+
 /// Reads and parses a BVH file; errors name the file by its base name.
 pub fn read(path: &Path) -> Result<Bvh, BvhError> {
     let file = path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
@@ -146,7 +151,7 @@ impl<'a> Parser<'a> {
             let token = self.next();
             match token.map(|t| t.text) {
                 Some("ROOT") => {
-                    self.joint(None, token.expect("matched"))?;
+                    self.joint(None, token.expect("matched"), 1)?;
                     roots += 1;
                 }
                 Some("MOTION") if roots > 0 => return Ok(()),
@@ -156,8 +161,13 @@ impl<'a> Parser<'a> {
         }
     }
 
-    /// Parses `<name> { … }` after ROOT or JOINT (the keyword token is `keyword`).
-    fn joint(&mut self, parent: Option<usize>, keyword: Token) -> Result<(), BvhError> {
+    /// Parses `<name> { … }` after ROOT or JOINT (the keyword token is `keyword`), at
+    /// nesting `depth` (the root is 1; at most [`MAX_DEPTH`]).
+    fn joint(&mut self, parent: Option<usize>, keyword: Token, depth: usize) -> Result<(), BvhError> {
+        if depth > MAX_DEPTH {
+            let message = format!("joints nest more than {MAX_DEPTH} deep; a `}}` is missing or the file is damaged");
+            return Err(self.node_error(keyword.line, message));
+        }
         let name = self.rest_of_line(keyword.line).join(" ");
         if name.is_empty() {
             return Err(self.syntax(self.peek(), format!("a joint name after `{}`", keyword.text)));
@@ -194,7 +204,7 @@ impl<'a> Parser<'a> {
                     let t = token.expect("matched");
                     return Err(self.node_error(t.line, format!("second {} in {what}", t.text)));
                 }
-                Some("JOINT") => self.joint(Some(index), token.expect("matched"))?,
+                Some("JOINT") => self.joint(Some(index), token.expect("matched"), depth + 1)?,
                 Some("End") => self.end_site(index, token.expect("matched"))?,
                 Some("}") if has_offset => return Ok(()),
                 Some("}") => return Err(self.node_error(self.line_of(token), format!("{what} has no OFFSET"))),
@@ -374,7 +384,10 @@ fn read_motion(file: &str, lines: &[&str], motion_line: usize, columns: usize) -
         }
     };
 
-    let mut values = Vec::with_capacity(frames.saturating_mul(columns).min(1 << 26));
+    // Reserve for the lines that are there, not for the count the file declares (a typo
+    // there must not allocate gigabytes before the count check below refuses it).
+    let present = lines.len().saturating_sub(motion_line);
+    let mut values = Vec::with_capacity(frames.min(present).saturating_mul(columns));
     let mut read = 0;
     for (line, text) in rest {
         if read == frames {

@@ -73,3 +73,45 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<(String, usize)>>> {
     reprise_gltf::export(&src, &args.glb, &clips).map_err(|e| StageError::Input(e.to_string()))?;
     Ok(Some(clips.iter().map(|c| (c.name.clone(), c.values.len() / n.max(1))).collect()))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(dir: &std::path::Path, rig: RigRef) -> Args {
+        let controls = dir.join("controls.parquet");
+        let prov = reprise_stagekit::provenance("test", "0", &());
+        Controls { controls: vec![], rig }.write(&controls, &prov).unwrap();
+        Args {
+            curves: dir.join("curves.parquet"),
+            controls,
+            glb: dir.join("out.glb"),
+            prefix: "r_".into(),
+            check: false,
+        }
+    }
+
+    /// Catalogue: controls of a character that is not glTF (a CSV or BVH source) cannot
+    /// be exported into; the error names the controls file, and nothing is written.
+    #[test]
+    fn a_rig_that_is_not_gltf_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = args(dir.path(), RigRef::None);
+        let e = run(&a).unwrap_err();
+        assert_eq!(e.code(), reprise_stagekit::exit::INPUT);
+        assert!(e.to_string().contains("controls.parquet: the rig is not a glTF character"), "{e}");
+        assert!(!a.glb.exists());
+    }
+
+    /// Catalogue: a character file edited since ingest read it is refused (its animations
+    /// and the curves' controls might no longer match).
+    #[test]
+    fn a_character_changed_since_ingest_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let glb = dir.path().join("char.glb");
+        std::fs::write(&glb, b"glTF then edited").unwrap();
+        let rig = RigRef::Gltf { path: glb.display().to_string(), blake3: "0".repeat(64) };
+        let e = run(&args(dir.path(), rig)).unwrap_err().to_string();
+        assert!(e.contains("char.glb: changed since ingest read it; rerun ingest"), "{e}");
+    }
+}

@@ -49,4 +49,28 @@ pub enum GltfError {
     /// The requested resampling rate is not a positive finite number.
     #[error("{}: fps must be positive and finite, got {fps}", path.display())]
     BadFps { path: PathBuf, fps: f64 },
+
+    /// Resampling would make more frames than the limit (a key time typo, or an absurd
+    /// rate), refused before anything is allocated.
+    #[error(
+        "{}: animation '{animation}' lasts {duration} s, which at {fps} fps makes {frames:.0} frames ({total:.0} in all \
+         animations), more than the limit of {limit} (ingest --max-frames); is a key time wrong?",
+        path.display()
+    )]
+    TooLong { path: PathBuf, animation: String, duration: f64, fps: f64, frames: f64, total: f64, limit: usize },
+}
+
+impl GltfError {
+    /// Runs a read of `path` that goes through the `gltf` crate, turning a panic of that
+    /// crate on a damaged file (found by the generative tests: `Checked::unwrap` of an
+    /// invalid animation path, indexing past an array during validation) into
+    /// [`GltfError::Parse`] naming the file.
+    pub(crate) fn contain<T>(path: &std::path::Path, read: impl FnOnce() -> Result<T, Self>) -> Result<T, Self> {
+        reprise_artifact::contain::contain(read).unwrap_or_else(|panic| {
+            Err(Self::Parse {
+                path: path.to_path_buf(),
+                reason: format!("the glTF library failed on it ({panic}); an index or enum value is wrong"),
+            })
+        })
+    }
 }

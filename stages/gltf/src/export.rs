@@ -117,6 +117,10 @@ fn push_accessor(json: &mut Value, bin: &mut Vec<u8>, data: &[f32], kind: &str, 
 /// Writes a copy of `src` to `dst` with `clips` added as animations (an existing
 /// animation of the same name is an error).
 pub fn export(src: &Path, dst: &Path, clips: &[ExportClip]) -> Result<(), GltfError> {
+    GltfError::contain(src, || export_into(src, dst, clips))
+}
+
+fn export_into(src: &Path, dst: &Path, clips: &[ExportClip]) -> Result<(), GltfError> {
     let l = load(src)?;
     let graph = SceneGraph::from_loaded(&l)?;
     let lay = layout(&l, &graph);

@@ -55,8 +55,23 @@ impl GltfCurves {
     }
 }
 
-/// Reads the glTF/GLB file at `path` and resamples every animation at `fps` frames/second.
+/// The default bound on resampled frames ([`ingest_limited`]), all animations together:
+/// the same as ingest's `--max-frames` default.
+pub const MAX_FRAMES: usize = 1_000_000;
+
+/// Reads the glTF/GLB file at `path` and resamples every animation at `fps` frames/second
+/// (at most [`MAX_FRAMES`] frames in all).
 pub fn ingest(path: &Path, fps: f64) -> Result<GltfCurves, GltfError> {
+    ingest_limited(path, fps, MAX_FRAMES)
+}
+
+/// [`ingest`] with a bound on the frames made, all animations together. Frame counts
+/// come from the file's key times, so they are checked before anything is allocated.
+pub fn ingest_limited(path: &Path, fps: f64, max_frames: usize) -> Result<GltfCurves, GltfError> {
+    GltfError::contain(path, || read_and_sample(path, fps, max_frames))
+}
+
+fn read_and_sample(path: &Path, fps: f64, max_frames: usize) -> Result<GltfCurves, GltfError> {
     if !(fps.is_finite() && fps > 0.0) {
         return Err(GltfError::BadFps { path: path.to_path_buf(), fps });
     }
@@ -67,11 +82,30 @@ pub fn ingest(path: &Path, fps: f64) -> Result<GltfCurves, GltfError> {
     let graph = SceneGraph::from_loaded(&l)?;
     let layout = layout(&l, &graph);
     let names = unique_names(l.doc.animations().map(|a| a.name()), "animation");
-    let mut clips = Vec::new();
+    let mut read = Vec::new();
     for (anim, name) in l.doc.animations().zip(names) {
         let channels = read_channels(&l, &anim, &name)?;
-        clips.push(sample_clip(&graph, &layout, name, channels, fps));
+        read.push((name, channels));
     }
+    let duration = |c: &[Channel]| c.iter().map(|c| c.track.end_time()).fold(0.0, f64::max);
+    let frames = |c: &[Channel]| (duration(c) * fps).round() + 1.0;
+    let total: f64 = read.iter().map(|(_, c)| frames(c)).sum();
+    let width = layout.defaults().len().max(1) as f64;
+    if total.is_nan() || total > max_frames as f64 || total * width > usize::MAX as f64 / 8.0 {
+        if let Some((name, c)) = read.iter().max_by(|a, b| frames(&a.1).total_cmp(&frames(&b.1))) {
+            return Err(GltfError::TooLong {
+                path: path.to_path_buf(),
+                animation: name.clone(),
+                duration: duration(c),
+                fps,
+                frames: frames(c),
+                total,
+                limit: max_frames,
+            });
+        }
+    }
+    let clips: Vec<ClipCurves> =
+        read.into_iter().map(|(name, channels)| sample_clip(&graph, &layout, name, channels, fps)).collect();
     let mut controls = layout.infos.clone();
     let n = controls.len();
     for (c, info) in controls.iter_mut().enumerate() {

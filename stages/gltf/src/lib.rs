@@ -31,6 +31,6 @@ pub mod scene;
 pub use controls::ControlInfo;
 pub use error::GltfError;
 pub use export::{export, ExportClip};
-pub use ingest::{ingest, ClipCurves, GltfCurves};
+pub use ingest::{ingest, ingest_limited, ClipCurves, GltfCurves, MAX_FRAMES};
 pub use rig::GltfRig;
 pub use scene::{NodeInfo, SceneGraph};

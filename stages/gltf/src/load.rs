@@ -73,6 +73,8 @@ pub(crate) fn load(path: &Path) -> Result<Loaded, GltfError> {
     }
     // The crate's own validation (index bounds etc.), minus its complaint about required
     // extensions it was not compiled with: those were vetted above.
+    // `gltf-json` 1.4 panics inside `validate` on some damaged files (an attribute naming
+    // an accessor past the end): the callers contain it ([`GltfError::contain`]).
     let root = doc.as_json();
     let mut problems = Vec::new();
     root.validate(root, gltf::json::Path::new, &mut |p, e| {
@@ -86,7 +88,74 @@ pub(crate) fn load(path: &Path) -> Result<Loaded, GltfError> {
     }
 
     let buffers = doc.buffers().map(|b| load_buffer(path, &b, blob.as_deref())).collect::<Result<Vec<_>, _>>()?;
+    check_accessor_sizes(path, &doc)?;
     Ok(Loaded { path: path.to_path_buf(), doc, buffers })
+}
+
+/// The most elements an accessor without a buffer view (all zeros, or sparse over zeros)
+/// may declare: 16 Mi, far above any character's vertex or key count.
+pub const MAX_VIEWLESS_ELEMENTS: usize = 1 << 24;
+
+/// Bounds every accessor's declared size by the data behind it, before anything is read:
+/// the file's counts decide how much the readers allocate, so a count that its buffer
+/// view cannot hold (a damaged or hand-edited file) is refused, naming the accessor, its
+/// count and the bytes there are. Views must lie inside their buffers, and sparse
+/// accessors may not hold more entries than elements.
+fn check_accessor_sizes(path: &Path, doc: &gltf::Document) -> Result<(), GltfError> {
+    let err = |what: String, reason: String| GltfError::Accessor { path: path.to_path_buf(), what, reason };
+    for view in doc.views() {
+        let (buffer, end) = (view.buffer(), view.offset().checked_add(view.length()));
+        if end.is_none_or(|e| e > buffer.length()) {
+            return Err(err(
+                format!("bufferView {}", view.index()),
+                format!(
+                    "bytes {}..{} lie outside buffer {}, which has {} bytes",
+                    view.offset(),
+                    view.offset() as u128 + view.length() as u128,
+                    buffer.index(),
+                    buffer.length()
+                ),
+            ));
+        }
+    }
+    for a in doc.accessors() {
+        let what = format!("accessor {}", a.index());
+        let (count, size) = (a.count(), a.size());
+        match a.view() {
+            Some(view) => {
+                let stride = view.stride().unwrap_or(size).max(size);
+                let need = count
+                    .checked_sub(1)
+                    .map_or(Some(0), |c| c.checked_mul(stride).and_then(|b| b.checked_add(size)))
+                    .and_then(|b| b.checked_add(a.offset()));
+                if need.is_none_or(|n| n > view.length()) {
+                    return Err(err(
+                        what,
+                        format!(
+                            "declares {count} elements of {size} bytes (from byte {}), but bufferView {} holds only {} \
+                             bytes",
+                            a.offset(),
+                            view.index(),
+                            view.length()
+                        ),
+                    ));
+                }
+            }
+            None if count > MAX_VIEWLESS_ELEMENTS => {
+                return Err(err(
+                    what,
+                    format!("declares {count} elements without a bufferView; at most {MAX_VIEWLESS_ELEMENTS} are read"),
+                ));
+            }
+            None => {}
+        }
+        if let Some(sparse) = a.sparse() {
+            if sparse.count() > count {
+                return Err(err(what, format!("has {} sparse entries for {count} elements", sparse.count())));
+            }
+        }
+    }
+    Ok(())
 }
 
 fn load_buffer(path: &Path, b: &gltf::Buffer<'_>, blob: Option<&[u8]>) -> Result<Vec<u8>, GltfError> {

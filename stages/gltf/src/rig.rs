@@ -43,6 +43,10 @@ impl GltfRig {
     /// Reads the file and precomputes everything evaluation needs. Fails when the file has
     /// neither skins nor morph targets (no control could move a vertex).
     pub fn open(path: &Path) -> Result<Self, GltfError> {
+        GltfError::contain(path, || Self::read(path))
+    }
+
+    fn read(path: &Path) -> Result<Self, GltfError> {
         let l = load(path)?;
         let has_morphs = l.doc.meshes().any(|m| m.primitives().any(|p| p.morph_targets().len() > 0));
         if l.doc.skins().len() == 0 && !has_morphs {

@@ -52,8 +52,13 @@ pub(crate) fn tables(
 }
 
 /// A BVH file: one clip named by the file stem; the skeleton is the rig.
-pub(crate) fn bvh(path: &std::path::Path, fps: f64, blake3: String) -> Result<(Frames, Controls, Vec<Clip>), String> {
-    let curves = reprise_bvh::ingest(path, fps).map_err(|e| e.to_string())?;
+pub(crate) fn bvh(
+    path: &std::path::Path,
+    fps: f64,
+    max_frames: usize,
+    blake3: String,
+) -> Result<(Frames, Controls, Vec<Clip>), String> {
+    let curves = reprise_bvh::ingest_limited(path, fps, max_frames).map_err(|e| e.to_string())?;
     let clip =
         ImportedClip { name: curves.clip, frames: curves.frames, source_fps: curves.source_fps, values: curves.values };
     let source = path.display().to_string();
@@ -61,8 +66,13 @@ pub(crate) fn bvh(path: &std::path::Path, fps: f64, blake3: String) -> Result<(F
 }
 
 /// A glTF file: one clip per named animation; its skins and morph targets are the rig.
-pub(crate) fn gltf(path: &std::path::Path, fps: f64, blake3: String) -> Result<(Frames, Controls, Vec<Clip>), String> {
-    let curves = reprise_gltf::ingest(path, fps).map_err(|e| e.to_string())?;
+pub(crate) fn gltf(
+    path: &std::path::Path,
+    fps: f64,
+    max_frames: usize,
+    blake3: String,
+) -> Result<(Frames, Controls, Vec<Clip>), String> {
+    let curves = reprise_gltf::ingest_limited(path, fps, max_frames).map_err(|e| e.to_string())?;
     let clips = curves
         .clips
         .into_iter()

@@ -77,6 +77,12 @@ pub struct Args {
     #[arg(long, default_value_t = 1_000_000)]
     #[serde(skip)]
     pub max_frames: usize,
+    /// Limit: the most frame-table values ingest makes (frames × controls, all clips
+    /// together; 8 bytes each). A wide table of many columns over a long time span would
+    /// otherwise allocate without bound.
+    #[arg(long, default_value_t = 200_000_000)]
+    #[serde(skip)]
+    pub max_values: usize,
     /// Rate of a table's `frame` column when it has no `time` column (default: --fps).
     #[arg(long)]
     pub source_fps: Option<f64>,
@@ -166,8 +172,8 @@ impl Args {
                 dragon::FPS
             )));
         }
-        if self.max_frames == 0 {
-            return Err(StageError::Config("--max-frames must be at least 1".into()));
+        if self.max_frames == 0 || self.max_values == 0 {
+            return Err(StageError::Config("--max-frames and --max-values must be at least 1".into()));
         }
         Ok(())
     }
@@ -211,12 +217,12 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         Source::Bvh(path) => {
             provenance = provenance.with_input("bvh", path)?;
             let hash = provenance.inputs["bvh"].blake3.clone();
-            imported::bvh(path, args.fps, hash).map_err(StageError::Input)?
+            imported::bvh(path, args.fps, args.max_frames, hash).map_err(StageError::Input)?
         }
         Source::Gltf(path) => {
             provenance = provenance.with_input("gltf", path)?;
             let hash = provenance.inputs["gltf"].blake3.clone();
-            imported::gltf(path, args.fps, hash).map_err(StageError::Input)?
+            imported::gltf(path, args.fps, args.max_frames, hash).map_err(StageError::Input)?
         }
     };
     frames.write(&args.frames, &provenance)?;
@@ -246,7 +252,7 @@ fn from_table(args: &Args, path: &std::path::Path) -> StageResult<(Frames, Contr
     if table.rows() == 0 {
         return Err(StageError::Input(format!("{}: the table has no rows", path.display())));
     }
-    curves::check_budget(&table, &base, &curves, args.fps, args.max_frames)?;
+    curves::check_budget(&table, &base, &curves, args.fps, (args.max_frames, args.max_values))?;
     let frames = curves::resample(&curves, args.fps);
     let clips = curves
         .clips

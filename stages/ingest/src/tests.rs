@@ -8,7 +8,9 @@ use reprise_artifact::frames::Frames;
 
 use crate::{run, Args, Layout};
 
-fn args(dir: &Path, name: &str, text: &str) -> Args {
+mod generative;
+
+pub(super) fn args(dir: &Path, name: &str, text: &str) -> Args {
     let curves = dir.join(name);
     std::fs::write(&curves, text).unwrap();
     Args {
@@ -21,6 +23,7 @@ fn args(dir: &Path, name: &str, text: &str) -> Args {
         layout: Layout::Auto,
         fps: 24.0,
         max_frames: 1_000_000,
+        max_values: 200_000_000,
         source_fps: None,
         clip: None,
         time_column: None,

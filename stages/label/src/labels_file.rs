@@ -141,9 +141,14 @@ impl LabelsFile {
     /// Reads a `.toml` or `.csv` labels file.
     pub(crate) fn read(path: &Path) -> StageResult<Self> {
         let text = std::fs::read_to_string(path).map_err(|e| StageError::Input(format!("{}: {e}", path.display())))?;
+        Self::parse(path, &text)
+    }
+
+    /// Parses `text` as the labels file `path` (its extension says the format).
+    pub(crate) fn parse(path: &Path, text: &str) -> StageResult<Self> {
         let entries = match path.extension().and_then(|e| e.to_str()) {
-            Some("toml") => Self::parse_toml(path, &text)?,
-            Some("csv") => Self::parse_csv(path, &text)?,
+            Some("toml") => Self::parse_toml(path, text)?,
+            Some("csv") => Self::parse_csv(path, text)?,
             _ => return Err(StageError::Input(format!("{}: a labels file is .toml or .csv", path.display()))),
         };
         let mut labels: Vec<String> = Vec::new();

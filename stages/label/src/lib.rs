@@ -248,3 +248,6 @@ fn labeled_frames(frames: &Frames, segments: &[Segment], rows: &[Vec<usize>], ma
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod generative;

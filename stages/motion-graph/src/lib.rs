@@ -68,11 +68,20 @@ pub struct Args {
     /// With `absolute`: the largest windowed distance kept.
     #[arg(long)]
     pub max_distance: Option<f64>,
+    /// Limit: the most windowed distances computed for one pair of motions (frames of A ×
+    /// frames of B; 16 bytes of memory each, per thread). A labeling that leaves one very
+    /// long segment would otherwise allocate without bound.
+    #[arg(long, default_value_t = 25_000_000)]
+    #[serde(skip)]
+    pub max_pair_cells: usize,
     /// Only validate the flags and exit.
     #[arg(long)]
     #[serde(skip)]
     pub check: bool,
 }
+
+/// The longest window accepted, frames (a transition's cost must fit the graph's costs).
+pub const MAX_WINDOW: usize = 10_000;
 
 /// What the stage built.
 #[derive(Debug, Clone, PartialEq)]
@@ -91,16 +100,41 @@ pub struct Summary {
     pub threshold: f64,
 }
 
+/// Refuses, before the distances are computed, labeled frames the graph cannot be built
+/// from: no controls left (every one masked), or two motions whose distance surface would
+/// have more than `--max-pair-cells` entries (naming the longest motion).
+fn check_sizes(args: &Args, dim: usize, segs: &[(usize, usize)]) -> StageResult<()> {
+    let file = args.labeled_frames.display();
+    if dim == 0 {
+        return Err(StageError::Input(format!(
+            "{file}: no controls (all masked?): a motion graph compares poses by their controls"
+        )));
+    }
+    let longest = segs.iter().map(|&(s, e)| (e - s, s)).max().unwrap_or((0, 0));
+    if longest.0.saturating_mul(longest.0) > args.max_pair_cells {
+        return Err(StageError::Input(format!(
+            "{file}: row {}: a motion of {} frames makes {} windowed distances against itself, more than the limit \
+             --max-pair-cells {}; split the segment (label a shorter range) or raise the limit",
+            longest.1,
+            longest.0,
+            longest.0 as u128 * longest.0 as u128,
+            args.max_pair_cells
+        )));
+    }
+    Ok(())
+}
+
 /// Runs the stage (or only validates, with `--check`).
 pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     let bad_threshold = match args.threshold {
         Threshold::Quantile | Threshold::PerPair => !(args.quantile > 0.0 && args.quantile <= 1.0),
         Threshold::Absolute => !args.max_distance.is_some_and(|d| d >= 0.0),
     };
-    if args.window < 2 || bad_threshold {
-        return Err(StageError::Config(
-            "need --window >= 2, and 0 < --quantile <= 1 (quantile) or --max-distance >= 0 (absolute)".into(),
-        ));
+    if !(2..=MAX_WINDOW).contains(&args.window) || bad_threshold || args.max_pair_cells == 0 {
+        return Err(StageError::Config(format!(
+            "need 2 <= --window <= {MAX_WINDOW}, --max-pair-cells >= 1, and 0 < --quantile <= 1 (quantile) or \
+             --max-distance >= 0 (absolute)"
+        )));
     }
     if args.check {
         return Ok(None);
@@ -110,11 +144,13 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         .with_input("scales", &args.scales)?;
     let labeled = LabeledFrames::read(&args.labeled_frames)?;
     let scale_rows = scales::read(&args.scales)?;
+    reprise_artifact::provenance::check_made_from(&args.scales, &provenance)?;
     let controls = &labeled.frames.controls;
     let weight = scales::mean_weights(&scale_rows, &labeled.frames.controls);
     let dim = controls.len();
     let n = labeled.frames.rows();
     let segs = labeled.segment_runs();
+    check_sizes(args, dim, &segs)?;
     let z: Vec<f64> = (0..n)
         .flat_map(|r| labeled.frames.row(r).iter().zip(&weight).map(|(p, w)| p * w).collect::<Vec<_>>())
         .collect();
@@ -212,8 +248,8 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         per_label[i].1 += 1;
         per_label[i].2 += usize::from(a);
     }
-    motion_graph::write_nodes(&args.nodes, &nodes, &provenance)?;
-    motion_graph::write_edges(&args.edges, &edges, &provenance)?;
+    motion_graph::write_nodes(&args.nodes, &nodes, k, &provenance)?;
+    motion_graph::write_edges(&args.edges, &edges, k, &provenance)?;
     Ok(Some(Summary {
         frames: n,
         frames_in_scc: alive.iter().filter(|a| **a).count(),

@@ -34,9 +34,12 @@ pub fn blend_weight(p: f64, k: usize) -> f64 {
 
 /// $D(i,j)$ for motions `a` (`na × dim`, row-major) and `b` (`nb × dim`) with window
 /// `k`, row-major `na × nb`; entries whose windows leave either motion ($i + k > n_a$ or
-/// $j + 1 < k$) are `+∞`.
+/// $j + 1 < k$) are `+∞`. With `dim = 0` (no controls) the motions have no frames and the result is
+/// empty. The result
+/// has `na × nb` entries: callers bound the motions' lengths (the motion-graph stage's
+/// `--max-pair-frames`).
 pub fn window_distances(a: &[f64], b: &[f64], dim: usize, k: usize) -> Vec<f64> {
-    let (na, nb) = (a.len() / dim, b.len() / dim);
+    let (na, nb) = (a.len().checked_div(dim).unwrap_or(0), b.len().checked_div(dim).unwrap_or(0));
     let am = faer::Mat::<f64>::from_fn(na, dim, |i, c| a[i * dim + c]);
     let bm = faer::Mat::<f64>::from_fn(nb, dim, |i, c| b[i * dim + c]);
     let mut g = faer::Mat::<f64>::zeros(na, nb);
@@ -64,7 +67,8 @@ pub fn window_distances(a: &[f64], b: &[f64], dim: usize, k: usize) -> Vec<f64> 
 }
 
 /// The strict local minima of a row-major `rows × cols` surface within radius `rho` (finite
-/// values only), as `(i, j, value)`; `exclude(i, j)` removes candidates.
+/// values only), as `(i, j, value)`; `exclude(i, j)` removes candidates. A surface with
+/// fewer than `rows × cols` values has none.
 pub fn local_minima(
     d: &[f64],
     rows: usize,
@@ -73,14 +77,18 @@ pub fn local_minima(
     exclude: impl Fn(usize, usize) -> bool,
 ) -> Vec<(usize, usize, f64)> {
     let mut out = Vec::new();
+    if rows.checked_mul(cols).is_none_or(|len| d.len() < len) {
+        return out;
+    }
     for i in 0..rows {
         for j in 0..cols {
             let v = d[i * cols + j];
             if !v.is_finite() || exclude(i, j) {
                 continue;
             }
-            let is_min = (i.saturating_sub(rho)..(i + rho + 1).min(rows)).all(|a| {
-                (j.saturating_sub(rho)..(j + rho + 1).min(cols)).all(|b| (a == i && b == j) || d[a * cols + b] > v)
+            let is_min = (i.saturating_sub(rho)..i.saturating_add(rho).saturating_add(1).min(rows)).all(|a| {
+                (j.saturating_sub(rho)..j.saturating_add(rho).saturating_add(1).min(cols))
+                    .all(|b| (a == i && b == j) || d[a * cols + b] > v)
             });
             if is_min {
                 out.push((i, j, v));
@@ -88,6 +96,23 @@ pub fn local_minima(
         }
     }
     out
+}
+
+/// An edge that cannot be in a [`Graph`]: an end that is not a node, or a cost that is
+/// not a positive number of frames.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("edge {id} from node {from} to node {to} costing {cost} does not fit a graph of {nodes} nodes with costs 1..=2^32-1")]
+pub struct BadEdge {
+    /// The edge's id.
+    pub id: usize,
+    /// Its start, as given.
+    pub from: i64,
+    /// Its end, as given.
+    pub to: i64,
+    /// Its cost, as given.
+    pub cost: i64,
+    /// The graph's node count.
+    pub nodes: usize,
 }
 
 /// A directed graph with integer edge costs over nodes `0..n`.
@@ -104,12 +129,43 @@ impl Graph {
     }
 
     /// Adds edge `id` from `a` to `b` costing `cost`.
+    ///
+    /// # Panics
+    /// If `a` is not a node. Edges read from a file go through [`Graph::try_add`] or
+    /// [`Graph::from_edges`] instead, which refuse them.
     pub fn add(&mut self, a: usize, b: usize, cost: u32, id: usize) {
         self.adj[a].push((b, cost, id));
     }
 
+    /// Adds edge `id` from `a` to `b` costing `cost` frames, or refuses it if an end is
+    /// not a node or the cost is not in `1..=u32::MAX`.
+    pub fn try_add(&mut self, a: i64, b: i64, cost: i64, id: usize) -> Result<(), BadEdge> {
+        let n = self.adj.len();
+        let node = |v: i64| usize::try_from(v).ok().filter(|&v| v < n);
+        match (node(a), node(b), u32::try_from(cost).ok().filter(|&c| c > 0)) {
+            (Some(a), Some(b), Some(cost)) => {
+                self.adj[a].push((b, cost, id));
+                Ok(())
+            }
+            _ => Err(BadEdge { id, from: a, to: b, cost, nodes: n }),
+        }
+    }
+
+    /// A graph of `n` nodes with `(from, to, cost)` edges numbered in order, as read
+    /// from a file: every edge is checked ([`Graph::try_add`]).
+    pub fn from_edges(n: usize, edges: impl IntoIterator<Item = (i64, i64, i64)>) -> Result<Self, BadEdge> {
+        let mut g = Self::new(n);
+        for (id, (a, b, c)) in edges.into_iter().enumerate() {
+            g.try_add(a, b, c, id)?;
+        }
+        Ok(g)
+    }
+
     /// The cheapest path from `start` to any node with `target(node)`, within the nodes
-    /// `alive`: (total cost, the edge ids in order), or `None` if unreachable.
+    /// `alive`: (total cost, the edge ids in order), or `None` if unreachable. A node
+    /// missing from `alive` (shorter than the graph) counts as pruned; costs add up
+    /// saturating (a path of `u32::MAX` frames or more counts as unreachable), so no input
+    /// makes the search panic.
     pub fn shortest_to(
         &self,
         start: usize,
@@ -162,7 +218,8 @@ impl Graph {
             }
         }
         let n = self.adj.len();
-        if start >= n || alive.len() != n || !alive[start] {
+        let alive_at = |v: usize| alive.get(v).copied().unwrap_or(false);
+        if start >= n || !alive_at(start) {
             return None;
         }
         let mut best = vec![u64::MAX; n];
@@ -186,7 +243,7 @@ impl Graph {
             }
             for &(w, cost, e) in &self.adj[v] {
                 let next = c.saturating_add(weight(cost, e));
-                if w < n && alive[w] && next < best[w] {
+                if w < n && alive_at(w) && next < best[w] {
                     best[w] = next;
                     via[w] = Some((v, e, cost));
                     heap.push(Item(next, w));
@@ -206,7 +263,8 @@ fn splitmix(mut x: u64) -> u64 {
 }
 
 /// Membership of the largest strongly connected component (Tarjan's algorithm,
-/// iterative); ties go to the component found first.
+/// iterative); ties go to the component found first. Edges to nodes outside the graph
+/// (possible only through the public `adj`) are ignored.
 pub fn largest_scc(g: &Graph) -> Vec<bool> {
     let n = g.adj.len();
     let (mut index, mut low, mut on) = (vec![usize::MAX; n], vec![0usize; n], vec![false; n]);
@@ -226,6 +284,9 @@ pub fn largest_scc(g: &Graph) -> Vec<bool> {
         while let Some(&mut (v, ref mut ei)) = call.last_mut() {
             if let Some(&(w, _, _)) = g.adj[v].get(*ei) {
                 *ei += 1;
+                if w >= n {
+                    continue;
+                }
                 if index[w] == usize::MAX {
                     index[w] = next;
                     low[w] = next;
@@ -370,5 +431,27 @@ mod tests {
         assert_eq!((cost, path), (2, vec![0, 1]));
         assert!(g.shortest_to(0, &alive, |v| v == 5).is_none());
         assert!(g.shortest_to(0, &[true; 6], |v| v == 5).is_some());
+    }
+
+    /// Catalogue: edges read from a file that name no node, or cost nothing, are refused
+    /// by `from_edges` (was: `adj[a]` index panic); search and pruning never panic, even
+    /// on an `alive` of the wrong length or a path whose cost overflows.
+    #[test]
+    fn bad_edges_are_refused_and_search_is_total() {
+        let e = Graph::from_edges(3, [(0, 1, 1), (1, 5000, 12)]).unwrap_err();
+        assert_eq!((e.id, e.to, e.nodes), (1, 5000, 3));
+        assert!(e.to_string().contains("edge 1 from node 1 to node 5000"));
+        assert!(Graph::from_edges(3, [(-1, 1, 1)]).is_err());
+        assert!(Graph::from_edges(3, [(0, 1, 0)]).is_err());
+        assert!(Graph::from_edges(3, [(0, 1, 1 << 40)]).is_err());
+        let mut g =
+            Graph::from_edges(3, [(0, 1, i64::from(u32::MAX)), (1, 2, i64::from(u32::MAX)), (2, 0, 1)]).unwrap();
+        assert_eq!(g.shortest_to(0, &[true, true, true], |v| v == 2), None);
+        assert_eq!(g.shortest_to(2, &[true, true, true], |v| v == 0).map(|p| p.0), Some(1));
+        assert_eq!(g.shortest_to(0, &[true], |v| v == 2), None);
+        g.adj[2].push((99, 1, 3));
+        assert_eq!(largest_scc(&g), vec![true, true, true]);
+        assert!(local_minima(&[1.0, 2.0], 2, 2, usize::MAX, |_, _| false).is_empty());
+        assert!(window_distances(&[1.0; 6], &[1.0; 6], 0, 2).is_empty());
     }
 }

@@ -11,6 +11,9 @@ use std::panic::PanicHookInfo;
 pub fn install(binary: &str) {
     let binary = binary.to_string();
     std::panic::set_hook(Box::new(move |info| {
+        if reprise_artifact::contain::is_contained() {
+            return; // a dependency's panic on bad input, turned into an error by the caller
+        }
         eprintln!("{}", message(&binary, info));
         let backtrace = Backtrace::capture();
         if backtrace.status() == BacktraceStatus::Captured {

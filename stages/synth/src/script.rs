@@ -125,6 +125,14 @@ pub enum Command {
     },
 }
 
+/// The longest command a script may ask for, seconds (an hour: the engine allocates
+/// `duration × fps` frames per command, so a typo such as `duration = 1e9` is refused
+/// when the script is read, naming the command, instead of exhausting memory).
+pub const MAX_SECONDS: f64 = 3600.0;
+
+/// The longest blend a `transition` may ask for, frames (an hour at 1000 fps).
+pub const MAX_BLEND_FRAMES: usize = 3_600_000;
+
 /// A parsed script.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -185,22 +193,27 @@ impl Script {
     fn validate(&self) -> Result<(), String> {
         let s = self;
         let pos = |v: f64| v > 0.0 && v.is_finite();
+        let secs = |v: f64| pos(v) && v <= MAX_SECONDS;
         for (i, c) in s.commands.iter().enumerate() {
             let bad = |what: &str| Err(format!("command {} ({c:?}): {what}", i + 1));
             match c {
                 Command::Idle { duration, radius, hover, .. } => {
-                    if !pos(*duration) || radius.is_some_and(|r| !pos(r)) || hover.is_some_and(|h| !pos(h)) {
-                        return bad("duration, radius and hover must be positive");
+                    if !secs(*duration) || radius.is_some_and(|r| !pos(r)) || hover.is_some_and(|h| !secs(h)) {
+                        return bad(&format!(
+                            "duration, radius and hover must be positive (duration and hover at most {MAX_SECONDS} s)"
+                        ));
                     }
                 }
                 Command::Move { duration, radius, .. } => {
-                    if !pos(*duration) || radius.is_some_and(|r| !pos(r)) {
-                        return bad("duration and radius must be positive");
+                    if !secs(*duration) || radius.is_some_and(|r| !pos(r)) {
+                        return bad(&format!(
+                            "duration and radius must be positive (duration at most {MAX_SECONDS} s)"
+                        ));
                     }
                 }
                 Command::Transition { blend_frames, .. } => {
-                    if blend_frames == &Some(0) {
-                        return bad("blend_frames must be at least 1");
+                    if blend_frames.is_some_and(|b| b == 0 || b > MAX_BLEND_FRAMES) {
+                        return bad(&format!("blend_frames must be at least 1 and at most {MAX_BLEND_FRAMES}"));
                     }
                 }
                 Command::Play { segment, clip } => {

@@ -170,19 +170,7 @@ impl LabeledFrames {
 
     /// Row ranges `[start, end)` of consecutive rows of one segment with consecutive frames.
     pub fn segment_runs(&self) -> Vec<(usize, usize)> {
-        let mut runs: Vec<(usize, usize)> = Vec::new();
-        for r in 0..self.segment_id.len() {
-            match runs.last_mut() {
-                Some((_, e))
-                    if self.segment_id[r] == self.segment_id[r - 1]
-                        && self.frames.frame[r] == self.frames.frame[r - 1] + 1 =>
-                {
-                    *e = r + 1
-                }
-                _ => runs.push((r, r + 1)),
-            }
-        }
-        runs
+        segment_runs(&self.segment_id, &self.frames.frame)
     }
 
     /// Reads a labeled frame table with the same checks as [`Frames::read`].
@@ -197,6 +185,22 @@ impl LabeledFrames {
             masked_controls,
         })
     }
+}
+
+/// Row ranges `[start, end)` of the maximal runs of rows with one segment id and
+/// consecutive frame numbers (the motion graph's motions), for any table that has the two
+/// columns.
+pub fn segment_runs(segment_id: &[i64], frame: &[i64]) -> Vec<(usize, usize)> {
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for r in 0..segment_id.len().min(frame.len()) {
+        match runs.last_mut() {
+            Some((_, e)) if segment_id[r] == segment_id[r - 1] && frame[r] == frame[r - 1].wrapping_add(1) => {
+                *e = r + 1
+            }
+            _ => runs.push((r, r + 1)),
+        }
+    }
+    runs
 }
 
 #[cfg(test)]
