@@ -299,9 +299,12 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
             None => deterministic.push(system.id.clone()),
         }
     }
-    let nodes = motion_graph::read_nodes(&args.mg_nodes)?;
-    let edges = motion_graph::read_edges(&args.mg_edges)?;
-    out.extend(transition_points(&args.bridges, &args.mg_edges, &nodes, &edges, &labels)?);
+    let mg = motion_graph::read_graph(&args.mg_nodes, &args.mg_edges)?;
+    mg.check_window(args.window, "--window")?;
+    mg.check_frames(&labeled, &args.labeled_frames)?;
+    reprise_artifact::provenance::check_made_from(&args.mg_nodes, &provenance)?;
+    let (nodes, edges) = (&mg.nodes, &mg.edges);
+    out.extend(transition_points(&args.bridges, &args.mg_edges, nodes, edges, &labels)?);
     out.extend(model_quality(&args.gplvm_fits, &args.pca_errors)?);
 
     let shown: Vec<(String, String)> = systems.iter().map(|s| (s.id.clone(), s.shown.clone())).collect();

@@ -73,7 +73,10 @@ pub fn provenance(stage: &str, version: &str, params: &impl Serialize) -> Proven
 
 /// One line on stderr per system of a transition benchmark stage: how many of the
 /// requests it answered and the median latency (frames) of those answered.
-pub fn print_answer_summary<'a>(system: &str, answers: impl IntoIterator<Item = &'a reprise_artifact::transitions::Answer>) {
+pub fn print_answer_summary<'a>(
+    system: &str,
+    answers: impl IntoIterator<Item = &'a reprise_artifact::transitions::Answer>,
+) {
     let (mut latencies, mut total) = (Vec::new(), 0);
     for a in answers {
         total += 1;

@@ -229,6 +229,7 @@ impl LibraryParts {
         scales: &std::path::Path,
         bridges_path: &std::path::Path,
     ) -> StageResult<Self> {
+        reprise_model::check_library(gplvm_models, latents, pca_models, scales, bridges_path)?;
         let models = reprise_model::load(gplvm_models, pca_models, scales)?;
         let lat = gplvm::read_latents(latents)?;
         let frames = models

@@ -210,11 +210,12 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     if args.per_pair == 0
         || args.hold.is_nan()
         || args.hold < 0.0
+        || args.hold > reprise_synth::script::MAX_SECONDS
         || args.window < 2
         || !(0.0..=10.0).contains(&args.path_slack)
     {
         return Err(StageError::Config(
-            "need --per-pair >= 1, --hold >= 0, --window >= 2, --path-slack in [0, 10]".into(),
+            "need --per-pair >= 1, 0 <= --hold <= 3600, --window >= 2, --path-slack in [0, 10]".into(),
         ));
     }
     if args.check {
@@ -228,33 +229,19 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     let parts = args.models.load()?;
     let models = &parts.models;
     let labeled = LabeledFrames::read(&args.labeled_frames)?;
-    let nodes = motion_graph::read_nodes(&args.mg_nodes)?;
-    let edges = motion_graph::read_edges(&args.mg_edges)?;
-    if nodes.frame.len() != labeled.frames.rows() || labeled.frames.controls != models.controls {
+    let mg = motion_graph::read_graph(&args.mg_nodes, &args.mg_edges)?;
+    mg.check_window(args.window, "--window")?;
+    mg.check_frames(&labeled, &args.labeled_frames)?;
+    reprise_artifact::provenance::check_made_from(&args.mg_nodes, &provenance)?;
+    if labeled.frames.controls != models.controls {
         return Err(StageError::Input(format!(
-            "{} and {} do not describe the same frames and controls; rerun motion-graph",
-            args.mg_nodes.display(),
+            "{} and the label models list different controls; rerun the stages after label",
             args.labeled_frames.display()
         )));
     }
-    let mut g = Graph::new(nodes.frame.len());
-    for (i, e) in edges.iter().enumerate() {
-        let (a, b) = (e.from as usize, e.to as usize);
-        let n = g.adj.len();
-        // A transition edge blends A_a … A_{a+k−1} with B_{b−k+1} … B_b.
-        let blend_fits = e.kind != "transition" || (b >= args.window && a + args.window <= n);
-        if e.from < 0 || e.to < 0 || a >= n || b >= n || !blend_fits {
-            return Err(StageError::Input(format!(
-                "{}: edge {i} ({} → {}) does not index the {n} frames of {} with a {}-frame blend; rerun motion-graph",
-                args.mg_edges.display(),
-                e.from,
-                e.to,
-                args.mg_nodes.display(),
-                args.window
-            )));
-        }
-        g.add(a, b, e.cost as u32, i);
-    }
+    let (nodes, edges) = (&mg.nodes, &mg.edges);
+    let g = Graph::from_edges(nodes.frame.len(), edges.iter().map(|e| (e.from, e.to, e.cost)))
+        .map_err(|e| StageError::Input(format!("{}: {e}", args.mg_edges.display())))?;
     let lib = parts.library();
     let settings = Settings { fps: labeled.frames.fps, ..Settings::default() };
     let hold_frames = (args.hold * labeled.frames.fps).round() as usize;
@@ -280,7 +267,7 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     let base = Baseline {
         g: &g,
         alive: &nodes.in_scc,
-        edges: &edges,
+        edges,
         labeled: &labeled,
         k: args.window,
         hold: hold_frames,
