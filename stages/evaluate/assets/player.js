@@ -145,7 +145,7 @@
       lo = 0; hi = 0;
       clips.forEach(function (c, ci) {
         lo = Math.min(lo, -c.asked); hi = Math.max(hi, c.frames - 1 - c.asked);
-        var fig = document.createElement("figure"); fig.className = "panel";
+        var fig = document.createElement("figure"); fig.className = "panel"; fig.style.width = Math.max(width + 2, 282) + "px";
         var cv = document.createElement("canvas"); cv.width = width; cv.height = width;
         var cap = document.createElement("figcaption"); cap.className = "cap";
         fig.appendChild(cv); fig.appendChild(cap); panelsEl.appendChild(fig);
@@ -199,10 +199,17 @@
     var el = document.getElementById(p[0]);
     if (el && p[1].length) players[p[0]] = new Player(el, p[1], p[2]);
   });
-  // #transition-player=<group>,<frames from the request> (or script-player): opens that
-  // group at that frame, paused, and scrolls to it (the screenshot test uses it).
+  // #transition-player=<group>,<frames from the request> (or script-player): shows that
+  // player alone, opened at that group and frame, paused (a link to one moment of one
+  // transition; the screenshot test uses it).
   var m = /^#(transition-player|script-player)=(\d+),(-?\d+)$/.exec(location.hash);
-  if (m && players[m[1]]) { players[m[1]].go(+m[2], +m[3]); document.getElementById(m[1]).scrollIntoView(); }
+  if (m && players[m[1]]) {
+    var solo = document.getElementById(m[1]);
+    players[m[1]].go(+m[2], +m[3]);
+    Array.prototype.forEach.call(document.querySelectorAll("body > *, #player > *"), function (e) {
+      if (e !== solo && !e.contains(solo) && e.tagName !== "SCRIPT") e.style.display = "none";
+    });
+  }
   root.dataset.playersReady = Object.keys(players).length;
 
   // Click a header of a table.sortable to sort by that column (numbers by their leading value).

@@ -182,8 +182,8 @@ fn synthetic(dir: &Path) -> PathBuf {
     let meshes: Vec<f64> = (0..frames).flat_map(|t| sheet(t as f64 * 0.2)).collect();
     let dim = 3 * 144;
     let source = |idx: &[usize]| -> StageResult<Vec<f64>> {
-            Ok(idx.iter().flat_map(|&t| meshes[t * dim..(t + 1) * dim].to_vec()).collect())
-        };
+        Ok(idx.iter().flat_map(|&t| meshes[t * dim..(t + 1) * dim].to_vec()).collect())
+    };
     let encoded = crate::encode::encode(frames, dim, &source, 1e-3).unwrap();
     let mut script = clip("demo", 80, 48, 0, None);
     script.phase = vec![4; 48];
@@ -274,7 +274,8 @@ fn report_page_in_chromium() {
         eprintln!("SKIPPED: set REPRISE_REPORT_PAGE to a report's index.html");
         return;
     };
-    let page = PathBuf::from(page);
+    // Relative to the workspace root (tests run in the crate's directory).
+    let page = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(page);
     let shot = page.with_file_name("player.png");
     let Some(seen) = load(&page, "#transition-player=0,12", &shot) else { return };
     assert_page(&seen, 5000);

@@ -29,6 +29,12 @@ fn range(v: impl Iterator<Item = f64>) -> (f64, f64) {
     v.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)))
 }
 
+/// Maps a latent point to its panel's pixel position.
+type Place = Box<dyn Fn([f64; 2]) -> (f64, f64)>;
+
+/// A bar: (mean, CI low, CI high); `None` where not measured.
+pub type Bar = Option<(f64, f64, f64)>;
+
 /// One label's latent space: its training latents (x0, x1), a polyline per segment.
 pub struct LatentPanel {
     /// Label.
@@ -45,7 +51,7 @@ pub fn latents_with_bridges(panels: &[LatentPanel], bridges: &[(usize, [f64; 2],
     let rows = panels.len().div_ceil(cols).max(1);
     let (w, h) = (pw * cols as f64 + 20.0, ph * rows as f64 + 30.0);
     let mut s = svg_open(w, h, "Latent spaces (x0 against x1) and the best bridge of every ordered pair");
-    let place: Vec<Box<dyn Fn([f64; 2]) -> (f64, f64)>> = panels
+    let place: Vec<Place> = panels
         .iter()
         .enumerate()
         .map(|(i, p)| {
@@ -53,7 +59,7 @@ pub fn latents_with_bridges(panels: &[LatentPanel], bridges: &[(usize, [f64; 2],
             let (x0, x1) = range(p.segments.iter().flatten().map(|q| q[0]));
             let (y0, y1) = range(p.segments.iter().flatten().map(|q| q[1]));
             let (sx, sy) = (scale(x0, x1, ox + 10.0, ox + pw - 20.0), scale(y0, y1, oy + ph - 16.0, oy + 22.0));
-            Box::new(move |q: [f64; 2]| (sx(q[0]), sy(q[1]))) as Box<dyn Fn([f64; 2]) -> (f64, f64)>
+            Box::new(move |q: [f64; 2]| (sx(q[0]), sy(q[1]))) as Place
         })
         .collect();
     for (i, p) in panels.iter().enumerate() {
@@ -184,13 +190,8 @@ pub fn latency_histograms(series: &[(String, Vec<f64>, usize)]) -> String {
 }
 
 /// Grouped bars with CI whiskers: per group (phase) one bar per system.
-/// `values[group][system] = Some((mean, ci_low, ci_high))`.
-pub fn grouped_bars(
-    title: &str,
-    groups: &[&str],
-    systems: &[String],
-    values: &[Vec<Option<(f64, f64, f64)>>],
-) -> String {
+/// `values[group][system]`.
+pub fn grouped_bars(title: &str, groups: &[&str], systems: &[String], values: &[Vec<Bar>]) -> String {
     let (w, h) = (420.0, 220.0);
     let mut s = svg_open(w, h, title);
     let top = values

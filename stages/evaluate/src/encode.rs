@@ -15,7 +15,7 @@ use reprise_numerics::pca::{Pca, PcaParams};
 use reprise_stagekit::StageResult;
 
 /// At most this many basis vectors.
-pub const MAX_COMPONENTS: usize = 64;
+pub const MAX_COMPONENTS: usize = 128;
 
 /// The basis is fitted to at most this many frames (evenly strided over the shown ones);
 /// the error is measured on all of them.
@@ -156,7 +156,7 @@ fn choose_k(dim: usize, coords: &[Vec<f64>], total: &[f64], r: usize, target: f6
     let mean_error = |k: usize| {
         let s: f64 = coords
             .iter()
-            .zip(&total)
+            .zip(total)
             .map(|(y, t)| ((t - y[..k].iter().map(|v| v * v).sum::<f64>()).max(0.0) / vertices).sqrt())
             .sum();
         s / coords.len().max(1) as f64

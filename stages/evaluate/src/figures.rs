@@ -169,16 +169,28 @@ pub fn missing(systems: &[System], requests: &[Request], labels: &[String]) -> V
         ));
     }
     let mut none = Vec::new();
+    let mut unanswered: Vec<Vec<String>> = vec![Vec::new(); systems.len()];
     for a in labels {
         for b in labels.iter().filter(|b| *b != a) {
             let reqs: Vec<&Request> = requests.iter().filter(|r| &r.from == a && &r.to == b).collect();
             if reqs.is_empty() {
                 none.push(format!("{a} → {b}"));
+                continue;
             }
-            for s in systems.iter().filter(|s| !reqs.is_empty() && !reqs.iter().any(|r| s.answered(r))) {
-                out.push(format!("{} answered none of the {} requests {a} → {b}.", s.shown, reqs.len()));
+            for (s, u) in systems.iter().zip(&mut unanswered) {
+                if !reqs.iter().any(|r| s.answered(r)) {
+                    u.push(format!("{a} → {b}"));
+                }
             }
         }
+    }
+    for (s, u) in systems.iter().zip(&unanswered).filter(|(_, u)| !u.is_empty()) {
+        out.push(format!(
+            "{} answered none of the requests of {} label pairs (the player shows them as “no answer”): {}.",
+            s.shown,
+            u.len(),
+            u.join(", ")
+        ));
     }
     if !none.is_empty() {
         out.push(format!("No requests for {} of the label pairs: {}.", none.len(), none.join(", ")));
@@ -187,10 +199,10 @@ pub fn missing(systems: &[System], requests: &[Request], labels: &[String]) -> V
 }
 
 /// Per label (in file order) the objective by iteration, from a `gplvm_trace` table.
-fn traces(path: &Path) -> StageResult<Vec<(String, Vec<(i64, f64)>)>> {
+fn traces(path: &Path) -> StageResult<Vec<html::Trace>> {
     let t = Table::read(path, reprise_artifact::gplvm::GPLVM_TRACE)?;
     let (label, iteration, value) = (t.strings("label")?, t.i64("iteration")?, t.f64("value")?);
-    let mut out: Vec<(String, Vec<(i64, f64)>)> = Vec::new();
+    let mut out: Vec<html::Trace> = Vec::new();
     for r in 0..t.rows() {
         match out.iter_mut().find(|(l, _)| *l == label[r]) {
             Some((_, v)) => v.push((iteration[r], value[r])),

@@ -24,6 +24,9 @@ use crate::render::{png, render, Camera};
 use crate::report::{self, cell, find, Verdict, OVERALL};
 use crate::Metric;
 
+/// One label's optimisation trace: (label, per iteration (iteration, objective)).
+pub type Trace = (String, Vec<(i64, f64)>);
+
 /// A mesh with its caption.
 pub type Picture = (String, Vec<f64>);
 
@@ -51,7 +54,7 @@ pub struct Page<'a> {
     /// Per system: (shown name, latencies of answered requests in s, unanswered requests).
     pub latencies: Vec<(String, Vec<f64>, usize)>,
     /// Per label the GPLVM objective by iteration.
-    pub traces: Vec<(String, Vec<(i64, f64)>)>,
+    pub traces: Vec<Trace>,
     /// Labels in order (for the coverage map).
     pub labels: &'a [String],
     /// The player's content (`None`: it could not be built; the reason is in `missing`).
@@ -74,7 +77,7 @@ th{background:#f3f3f3}td.num{text-align:right;font-variant-numeric:tabular-nums}
 .missing{background:#fff4e0;border-left:4px solid #e8a33d;padding:.5em 1em}.conclusions li{margin:.3em 0}\
 .player{border:1px solid #ccc;padding:.6em;margin:1em 0;background:#fafafa}.player .controls{display:flex;gap:8px;align-items:center;flex-wrap:wrap}\
 .player input[type=range]{flex:1;min-width:200px}.player .panels{display:flex;flex-wrap:wrap;gap:8px;margin-top:.6em}\
-.player .panel{width:300px;text-align:left}.player canvas{border:1px solid #ddd;background:#f5f5f5}.player .cap{font-size:11.5px;margin-top:3px}\
+.player .panel{text-align:left}.player canvas{border:1px solid #ddd;background:#f5f5f5}.player .cap{font-size:11.5px;margin-top:3px}\
 .player .bridge{color:#7a3}code{background:#f3f3f3;padding:0 3px}nav a{margin-right:1em}";
 
 /// Records script errors on the root element (`data-js-errors`, `data-js-error`) so a
@@ -110,7 +113,7 @@ pub fn page(p: &Page<'_>, metrics: &[Metric], ctx: &report::Context<'_>) -> Stri
     if let Some(pl) = &p.player {
         embed(&mut s, pl);
     }
-    let _ = write!(s, "<script>{}</script></body></html>\n", PLAYER_JS.replace("</script", "<\\/script"));
+    let _ = writeln!(s, "<script>{}</script></body></html>", PLAYER_JS.replace("</script", "<\\/script"));
     s
 }
 
@@ -302,7 +305,7 @@ fn tables(s: &mut String, m: &[Metric], ctx: &report::Context<'_>) {
         .collect();
     table(s, "quality", &head, &rows);
 
-    *s += "<h3>Every overall row (click a header to sort)</h3>";
+    *s += "<details><summary>Every overall row (click a header to sort)</summary>";
     let head: Vec<String> =
         ["system", "metric", "from", "to", "value", "95 % CI", "n", "unit"].map(String::from).to_vec();
     let rows: Vec<Vec<(String, bool, bool)>> = m
@@ -326,7 +329,7 @@ fn tables(s: &mut String, m: &[Metric], ctx: &report::Context<'_>) {
         })
         .collect();
     table(s, "sortable", &head, &rows);
-    *s += "<p>Per-pair values are in metrics.parquet; the per-pair latency and coverage grids in report.md.</p></section>";
+    *s += "</details><p>Per-pair values are in metrics.parquet; the per-pair latency and coverage grids in report.md.</p></section>";
 }
 
 /// The player's HTML (controls; panels are built by the script).
@@ -432,7 +435,7 @@ fn figures(s: &mut String, p: &Page<'_>, m: &[Metric], ctx: &report::Context<'_>
     *s += "<h3>Where in a transition do poses leave the training data?</h3><div class='row' id='plausibility'>";
     for r in Reference::ALL {
         for sp in Space::ALL {
-            let values: Vec<Vec<Option<(f64, f64, f64)>>> = Phase::ALL
+            let values: Vec<Vec<charts::Bar>> = Phase::ALL
                 .iter()
                 .map(|ph| {
                     let name = crate::measure::plausibility::metric_name(r, sp, Some(*ph));

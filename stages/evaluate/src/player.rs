@@ -4,10 +4,10 @@
 //! meshes of all of them encoded by [`crate::encode`]. The page (`html`) embeds it as JSON
 //! plus base64 and `player.js` draws it; nothing here renders.
 //!
-//! **The rule.** Pairs: the [`SHOWN_PAIRS`] ordered label pairs where the systems disagree
-//! most — the largest spread (max − min over systems) of the pair's mean latency over its
-//! answered requests, a system answering none of the pair's requests counting as an
-//! infinite spread (a failure is the most telling thing to watch). Requests of a shown
+//! **The rule.** Pairs: up to [`SHOWN_PAIRS`] ordered label pairs, ranked first by how many
+//! systems answer none of the pair's requests (a failure is the most telling thing to
+//! watch), then by the spread (max − min over the systems that answer) of the pair's mean
+//! latency, taken greedily so that no label appears in two shown pairs. Requests of a shown
 //! pair: for every system its median-latency and its worst request of the pair (longest
 //! latency; an unanswered one is the worst), in request order, at most
 //! [`REQUESTS_PER_PAIR`]. Every shown request is played by every system given, side by
@@ -66,8 +66,11 @@ pub struct Clip {
     pub latent: Vec<Vec<f64>>,
     /// Nearest training frame per frame: (labeled-frames row, RMS vertex distance in
     /// mesh units, 4 decimals).
-    pub nearest: Vec<(usize, f64)>,
+    pub nearest: Vec<Nearest>,
 }
+
+/// A frame's nearest training frame: (labeled-frames row, RMS vertex distance, mesh units).
+pub type Nearest = (usize, f64);
 
 /// One request (or script) and its clips, one per system given.
 #[derive(Debug, Clone, Serialize)]
@@ -135,37 +138,45 @@ pub struct Inputs<'a> {
     pub window: usize,
 }
 
+/// An ordered label pair (A, B).
+pub type Pair = (String, String);
+
+/// A shown pair and its requests, each with why it was chosen.
+pub type Shown<'r> = (Pair, Vec<(&'r Request, String)>);
+
 /// The requests shown, grouped by pair, with why each was chosen (see the module doc).
-pub fn select<'r>(requests: &'r [Request], systems: &[System]) -> Vec<((String, String), Vec<(&'r Request, String)>)> {
+pub fn select<'r>(requests: &'r [Request], systems: &[System]) -> Vec<Shown<'r>> {
     let mut pairs: BTreeMap<(String, String), Vec<&Request>> = BTreeMap::new();
     for r in requests {
         pairs.entry((r.from.clone(), r.to.clone())).or_default().push(r);
     }
     let latency = |s: &System, r: &Request| s.answer(r).and_then(|a| a.latency);
-    let spread = |reqs: &[&Request]| {
+    // (systems answering none of the pair, spread of the others' mean latencies).
+    let rank = |reqs: &[&Request]| {
         let means: Vec<f64> = systems
             .iter()
-            .map(|s| {
+            .filter_map(|s| {
                 let l: Vec<f64> = reqs.iter().filter_map(|r| latency(s, r)).map(|l| l as f64).collect();
-                if l.is_empty() {
-                    f64::INFINITY
-                } else {
-                    l.iter().sum::<f64>() / l.len() as f64
-                }
+                (!l.is_empty()).then(|| l.iter().sum::<f64>() / l.len() as f64)
             })
             .collect();
-        if means.iter().any(|m| m.is_infinite()) {
-            return f64::INFINITY;
-        }
-        means.iter().copied().fold(f64::NEG_INFINITY, f64::max) - means.iter().copied().fold(f64::INFINITY, f64::min)
+        let (lo, hi) = means.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), m| (a.min(*m), b.max(*m)));
+        (systems.len() - means.len(), if means.len() > 1 { hi - lo } else { 0.0 })
     };
-    let mut ranked: Vec<(f64, (String, String), Vec<&Request>)> =
-        pairs.into_iter().map(|(p, reqs)| (spread(&reqs), p, reqs)).collect();
-    ranked.sort_by(|a, b| b.0.total_cmp(&a.0));
-    ranked
+    let mut ranked: Vec<((usize, f64), Pair, Vec<&Request>)> =
+        pairs.into_iter().map(|(p, reqs)| (rank(&reqs), p, reqs)).collect();
+    ranked.sort_by(|a, b| b.0 .0.cmp(&a.0 .0).then(b.0 .1.total_cmp(&a.0 .1)));
+    let mut used: Vec<&str> = Vec::new();
+    let mut shown = Vec::new();
+    for (_, pair, reqs) in &ranked {
+        if shown.len() < SHOWN_PAIRS && !used.contains(&pair.0.as_str()) && !used.contains(&pair.1.as_str()) {
+            used.extend([pair.0.as_str(), pair.1.as_str()]);
+            shown.push((pair.clone(), reqs.clone()));
+        }
+    }
+    shown
         .into_iter()
-        .take(SHOWN_PAIRS)
-        .map(|(_, pair, reqs)| {
+        .map(|(pair, reqs)| {
             let mut chosen: BTreeMap<i64, (&Request, Vec<String>)> = BTreeMap::new();
             for s in systems {
                 // Unanswered sorts last (the worst).
@@ -257,9 +268,9 @@ pub fn build(inp: &Inputs<'_>) -> StageResult<Player> {
     Ok(player)
 }
 
-const RULE: &str = "Pairs: the label pairs where the systems disagree most — the largest spread (max − min over \
-     systems) of the pair's mean latency over its answered requests; a system answering none of the pair's requests \
-     counts as an infinite spread. Requests: for each system, its median-latency and its worst request of the pair \
+const RULE: &str = "Pairs: label pairs ranked first by how many systems answer none of the pair's requests, then by \
+     the spread (max − min over the systems that answer) of the pair's mean latency, taken greedily so that no label \
+     appears in two shown pairs. Requests: for each system, its median-latency and its worst request of the pair \
      (an unanswered request is the worst), in request order. Systems are aligned at the frame the transition is asked.";
 
 fn note_or(note: String, otherwise: &str) -> String {
@@ -332,7 +343,7 @@ fn nearest_frames(
     training: &Training,
     poses: &[Vec<f64>],
     meshes: &MeshSource<'_>,
-) -> StageResult<(Vec<(usize, f64)>, [f64; 4])> {
+) -> StageResult<(Vec<Nearest>, [f64; 4])> {
     let dim = training.dim;
     let mut out = Vec::with_capacity(poses.len());
     let mut b = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
@@ -375,13 +386,14 @@ fn bridges_gone_through(inp: &Inputs<'_>, model: &[String], controls: &[Vec<f64>
         let caption = match best {
             Some((d, b)) => format!(
                 "bridge {l1} → {l2} (rank {}, from point {}): x1 = ({}), x2 = ({}), rig distance {:.3}; inferred — its M1 \
-                 pose is {:.3} from the last {l1} frame",
+                 pose is {:.3} ({:.1} median frame steps, scaled controls) from the last {l1} frame",
                 b.rank,
                 b.from_point,
                 fmt_point(&b.x1),
                 fmt_point(&b.x2),
                 b.rig_distance,
-                d
+                d,
+                d / inp.training.step
             ),
             None => format!("switch {l1} → {l2}: no bridge {l1} → {l2} in the bridges table"),
         };
