@@ -82,7 +82,11 @@ pub fn load(page: &Path, hash: &str, shot: &Path) -> Option<Seen> {
         return None;
     };
     let page = std::fs::canonicalize(page).expect("page exists");
-    let profile = std::env::temp_dir().join(format!("reprise-chromium-{}", std::process::id()));
+    // One profile per run: Chromium refuses a profile another instance holds (tests run
+    // in parallel).
+    static RUNS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let run = RUNS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let profile = std::env::temp_dir().join(format!("reprise-chromium-{}-{run}", std::process::id()));
     let url = format!("file://{}", page.display());
     let dom = headless(&bin, &profile, &["--dump-dom"], &url);
     let window = "--window-size=1280,1000".to_string();
@@ -258,6 +262,7 @@ fn synthetic(dir: &Path) -> PathBuf {
 #[test]
 fn synthetic_page_in_chromium() {
     let dir = std::env::temp_dir().join(format!("reprise-page-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let page = synthetic(&dir);
     let Some(seen) = load(&page, "#transition-player=0,5", &dir.join("shot.png")) else { return };

@@ -56,8 +56,11 @@ pub fn latents_with_bridges(panels: &[LatentPanel], bridges: &[(usize, [f64; 2],
         .enumerate()
         .map(|(i, p)| {
             let (ox, oy) = (10.0 + pw * (i % cols) as f64, 24.0 + ph * (i / cols) as f64);
-            let (x0, x1) = range(p.segments.iter().flatten().map(|q| q[0]));
-            let (y0, y1) = range(p.segments.iter().flatten().map(|q| q[1]));
+            // The panel frames its training latents and the bridge ends in its space.
+            let ends = bridges.iter().flat_map(|(a, x1, b, x2)| [(*a, *x1), (*b, *x2)]).filter(|(l, _)| *l == i);
+            let pts: Vec<[f64; 2]> = p.segments.iter().flatten().copied().chain(ends.map(|(_, x)| x)).collect();
+            let (x0, x1) = range(pts.iter().map(|q| q[0]));
+            let (y0, y1) = range(pts.iter().map(|q| q[1]));
             let (sx, sy) = (scale(x0, x1, ox + 10.0, ox + pw - 20.0), scale(y0, y1, oy + ph - 16.0, oy + 22.0));
             Box::new(move |q: [f64; 2]| (sx(q[0]), sy(q[1]))) as Place
         })
@@ -146,7 +149,7 @@ pub fn latency_histograms(series: &[(String, Vec<f64>, usize)]) -> String {
     let (lo, hi) = if lo.is_finite() { (0.0_f64.min(lo), hi.max(lo + 1e-9)) } else { (0.0, 1.0) };
     let width = (hi - lo) / bins as f64;
     let h = 40.0 + rh * series.len() as f64 + 30.0;
-    let mut s = svg_open(rw + 280.0, h, "Latency per request (s), by system: histograms of answered requests");
+    let mut s = svg_open(rw + 380.0, h, "Latency per request (s), by system: histograms of answered requests");
     let sx = scale(lo, hi, 140.0, 140.0 + rw);
     for (i, (name, v, unanswered)) in series.iter().enumerate() {
         let mut counts = vec![0usize; bins];

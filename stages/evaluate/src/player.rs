@@ -405,3 +405,69 @@ fn bridges_gone_through(inp: &Inputs<'_>, model: &[String], controls: &[Vec<f64>
 fn fmt_point(x: &[f64]) -> String {
     x.iter().map(|v| format!("{v:.2}")).collect::<Vec<_>>().join(", ")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use reprise_artifact::transitions::{Answer, Answers};
+
+    fn request(id: i64, from: &str, to: &str) -> Request {
+        Request { request: id, from: from.into(), to: to.into(), segment_id: 0, clip: "c".into(), frame: 0 }
+    }
+
+    /// A system answering request `id` with `latency(id)` frames (`None`: refused).
+    fn system(id: &str, reqs: &[Request], latency: impl Fn(i64) -> Option<i64>) -> System {
+        let by_request = reqs
+            .iter()
+            .map(|r| (r.request, latency(r.request).map_or_else(|| Answer::failed("no"), |l| Answer::reached(0, l))))
+            .collect();
+        System {
+            id: id.into(),
+            shown: id.into(),
+            answers: Answers { system: id.into(), by_request },
+            played: BTreeMap::new(),
+            reseeded: None,
+        }
+    }
+
+    /// Pairs: the one a system fails comes first, then the widest latency spread, and no
+    /// label twice; requests: each system's median and worst, in request order.
+    #[test]
+    fn the_rule_picks_failures_then_spread_with_distinct_labels() {
+        let mut reqs = Vec::new();
+        for (k, (a, b)) in [("a", "b"), ("a", "c"), ("c", "d"), ("d", "e")].into_iter().enumerate() {
+            for j in 0..3 {
+                reqs.push(request(10 * k as i64 + j, a, b));
+            }
+        }
+        let fast = system("fast", &reqs, |_| Some(1));
+        // Fails a → b; slow on c → d (spread 29), a bit slow on d → e (spread 9) and a → c.
+        let slow = system("slow", &reqs, |id| match id / 10 {
+            0 => None,
+            1 => Some(5 + id % 10),
+            2 => Some(30),
+            _ => Some(10 + 2 * (id % 10)),
+        });
+        let shown = select(&reqs, &[fast, slow]);
+        let pairs: Vec<&Pair> = shown.iter().map(|(p, _)| p).collect();
+        // a → b (a failure), then c → d (spread 29); d → e shares d, a → c shares a and c.
+        assert_eq!(pairs, [&("a".to_string(), "b".to_string()), &("c".to_string(), "d".to_string())]);
+        let ids: Vec<i64> = shown[0].1.iter().map(|(r, _)| r.request).collect();
+        // fast: all 1 frame, median 1 and worst 2 by id; slow: all refused, median 1, worst 2.
+        assert_eq!(ids, [1, 2]);
+        assert!(shown[0].1[1].1.contains("worst of fast") && shown[0].1[1].1.contains("worst of slow"));
+    }
+
+    /// What is missing: a system not given, a pair without requests, a pair a system
+    /// answered none of.
+    #[test]
+    fn missing_inputs_are_said() {
+        let reqs = vec![request(1, "a", "b")];
+        let s = system("reprise", &reqs, |_| None);
+        let notes = crate::figures::missing(&[s], &reqs, &["a".into(), "b".into()]);
+        let all = notes.join("\n");
+        assert!(all.contains("Motion Graphs (`baseline`) was not given"), "{all}");
+        assert!(all.contains("No requests for 1 of the label pairs: b → a"), "{all}");
+        assert!(all.contains("reprise answered none of the requests of 1 label pairs"), "{all}");
+    }
+}
