@@ -134,7 +134,18 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     assert!(md.contains("## Plausibility by phase") && md.contains("| floor | mesh | settle |"), "{md}");
     assert!(md.contains("**Motion matching** is best on") && md.contains("**Crossfade** is best on"), "{md}");
     let html = p.read("reports/dragon-face/index.html");
-    for id in ["conclusions", "metrics", "transition-player", "traces", "latency", "latents", "bridges", "filmstrip", "velocity", "coverage"] {
+    for id in [
+        "conclusions",
+        "metrics",
+        "transition-player",
+        "traces",
+        "latency",
+        "latents",
+        "bridges",
+        "filmstrip",
+        "velocity",
+        "coverage",
+    ] {
         assert!(html.contains(&format!("id='{id}'")), "the report has the {id} figure");
     }
     assert!(html.matches("data:image/png;base64,").count() >= 12, "rendered bridge poses and filmstrip frames");

@@ -210,7 +210,6 @@ fn synthetic(dir: &Path) -> PathBuf {
         bounds: [-1.0, -1.2, 1.0, 1.2],
         triangles: sheet_triangles().into_iter().flatten().collect(),
         mesh_step: 0.05,
-        missing: vec![],
         encoded,
     };
     let labels = vec!["a".to_string(), "b".to_string()];
@@ -268,7 +267,7 @@ fn synthetic_page_in_chromium() {
     let Some(seen) = load(&page, "#transition-player=0,5", &dir.join("shot.png")) else { return };
     assert_page(&seen, 2000);
     assert!(seen.dom.contains("never reached"), "the missing answer is said");
-    assert!(seen.dom.contains("Missing from the inputs"));
+    assert!(seen.dom.contains("What is missing"));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -121,7 +121,7 @@ fn missing(s: &mut String, notes: &[String]) {
     if notes.is_empty() {
         return;
     }
-    *s += "<section id='missing' class='missing'><h2>Missing from the inputs</h2><ul>";
+    *s += "<section id='missing' class='missing'><h2>What is missing</h2><ul>";
     for n in notes {
         let _ = write!(s, "<li>{}</li>", esc(n));
     }

@@ -107,8 +107,6 @@ pub struct Player {
     pub triangles: Vec<u32>,
     /// Training median RMS vertex motion per frame (mesh units), for scale.
     pub mesh_step: f64,
-    /// Notes: what is missing.
-    pub missing: Vec<String>,
     /// The encoded meshes (embedded separately as base64).
     #[serde(skip)]
     pub encoded: Option<Encoded>,
@@ -259,7 +257,6 @@ pub fn build(inp: &Inputs<'_>) -> StageResult<Player> {
         bounds,
         triangles: inp.rig.0.triangles().iter().flatten().copied().collect(),
         mesh_step: inp.training.mesh_step,
-        missing: vec![],
         encoded,
     };
     for c in player.groups.iter_mut().chain(player.scripts.iter_mut()).flat_map(|g| g.clips.iter_mut()) {
