@@ -134,11 +134,23 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     assert!(md.contains("## Plausibility by phase") && md.contains("| floor | mesh | settle |"), "{md}");
     assert!(md.contains("**Motion matching** is best on") && md.contains("**Crossfade** is best on"), "{md}");
     let html = p.read("reports/dragon-face/index.html");
-    for id in ["latents", "bridges", "filmstrip", "velocity", "coverage"] {
+    for id in [
+        "conclusions",
+        "metrics",
+        "transition-player",
+        "traces",
+        "latency",
+        "latents",
+        "bridges",
+        "filmstrip",
+        "velocity",
+        "coverage",
+    ] {
         assert!(html.contains(&format!("id='{id}'")), "the report has the {id} figure");
     }
     assert!(html.matches("data:image/png;base64,").count() >= 12, "rendered bridge poses and filmstrip frames");
-    assert!(!html.contains("src='http") && !html.contains("<script"), "self-contained, no scripts");
+    assert!(!html.contains("src='http") && !html.contains("src=\"http") && !html.contains("<link"), "self-contained");
+    assert!(html.contains("id='player-data'") && html.contains("id='player-mesh'"), "the player's data is inline");
     // The same seeds give the same curves.
     let before = std::fs::read(a("curves")).unwrap();
     p.reprise(&["run", "--force", "synthesize"]).ok();

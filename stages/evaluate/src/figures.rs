@@ -1,81 +1,226 @@
-//! The report's figures (latent spaces, bridge poses, the filmstrip) and its provenance
-//! lines (commit, pipeline hash, machine, inputs, stage times).
+//! The page's content besides the metric rows: figure data (latent spaces and bridges,
+//! bridge poses, the filmstrip, fit traces, latency distributions), the player
+//! ([`crate::player`]), what the inputs lack, and the provenance lines (commit, pipeline
+//! hash, machine, inputs, stage times).
 
 use std::collections::BTreeMap;
+use std::path::Path;
 
-use reprise_artifact::{bridges, curves};
+use reprise_artifact::frames::LabeledFrames;
+use reprise_artifact::transitions::Request;
+use reprise_artifact::{bridges, curves, Table};
+use reprise_numerics::gplvm::LatentModel;
 use reprise_stagekit::rig::meshes;
 use reprise_stagekit::StageResult;
 
-use crate::{html, Args};
+use crate::charts::LatentPanel;
+use crate::measure::Measured;
+use crate::systems::{System, KNOWN};
+use crate::training::{RigRef, Training};
+use crate::{html, player, Args};
 
-/// The figures' data and the provenance lines.
-#[allow(clippy::too_many_arguments)]
-pub fn figures<'a>(
-    args: &'a Args,
-    rig: &'a (Box<dyn reprise_rig::Rig>, reprise_rig::PoseLayout),
-    links: &[bridges::Bridge],
-    labels: &'a [String],
-    systems: &'a [(String, String)],
-    camera_mesh: &'a [f64],
-    md: &'a str,
-    speed: Vec<(String, Vec<i64>, Vec<f64>)>,
-    provenance: &reprise_artifact::Provenance,
-) -> StageResult<html::Page<'a>> {
+/// What the page is built from.
+pub struct Inputs<'a> {
+    /// The stage's flags (input paths).
+    pub args: &'a Args,
+    /// The rig.
+    pub rig: RigRef<'a>,
+    /// The training reference.
+    pub training: &'a Training,
+    /// The labeled frames.
+    pub labeled: &'a LabeledFrames,
+    /// The requests.
+    pub requests: &'a [Request],
+    /// The systems given, and their measurements (same order).
+    pub systems: &'a [System],
+    /// Per system its measured answers.
+    pub measured: &'a [Vec<Measured>],
+    /// The bridges.
+    pub links: &'a [bridges::Bridge],
+    /// Label order.
+    pub labels: &'a [String],
+    /// A training pose's mesh (fixes the static renders' camera).
+    pub camera_mesh: &'a [f64],
+    /// The Markdown report.
+    pub markdown: &'a str,
+    /// Mean peak-speed traces: (system, offsets, values).
+    pub speed: Vec<(String, Vec<i64>, Vec<f64>)>,
+}
+
+/// M's controls at latent point `x` (the GPLVM mean map).
+pub fn pose(m: &LatentModel, x: &[f64]) -> Vec<f64> {
+    let mut p = vec![0.0; m.controls()];
+    m.controls_into(x, &mut vec![0.0; m.d()], &mut p);
+    p
+}
+
+/// The page's content.
+pub fn figures<'a>(inp: Inputs<'a>, provenance: &reprise_artifact::Provenance) -> StageResult<html::Page<'a>> {
+    let args = inp.args;
     let lat = reprise_artifact::gplvm::read_latents(&args.latents)?;
-    let latents = labels
+    let latents: Vec<LatentPanel> = inp
+        .labels
         .iter()
         .map(|l| {
             let mut segs: BTreeMap<i64, Vec<[f64; 2]>> = BTreeMap::new();
             for r in (0..lat.label.len()).filter(|&r| &lat.label[r] == l) {
-                segs.entry(lat.segment_id[r]).or_default().push([lat.x[r][0], lat.x[r].get(1).copied().unwrap_or(0.0)]);
+                segs.entry(lat.segment_id[r]).or_default().push(xy(&lat.x[r]));
             }
-            (l.clone(), segs.into_values().collect())
+            LatentPanel { label: l.clone(), segments: segs.into_values().collect() }
         })
         .collect();
+    let index = |l: &str| inp.labels.iter().position(|x| x == l);
+    let mut best: Vec<&bridges::Bridge> = inp.links.iter().filter(|b| b.rank == 1).collect();
+    let latent_bridges =
+        best.iter().filter_map(|b| Some((index(&b.from)?, xy(&b.x1), index(&b.to)?, xy(&b.x2)))).collect();
     let models = reprise_model::load(&args.gplvm_models, &args.pca_models, &args.scales)?;
-    let pose = |m: &reprise_numerics::gplvm::LatentModel, x: &[f64]| {
-        let mut p = vec![0.0; m.controls()];
-        m.controls_into(x, &mut vec![0.0; m.d()], &mut p);
-        p
-    };
-    let mut best: Vec<&bridges::Bridge> = links.iter().filter(|b| b.rank == 1).collect();
     best.sort_by(|a, b| {
         a.mesh_distance.unwrap_or(a.rig_distance).total_cmp(&b.mesh_distance.unwrap_or(b.rig_distance))
     });
     let mut bridge_figs = Vec::new();
     for b in best.into_iter().take(6) {
         let (m1, m2) = (models.require(&b.from)?, models.require(&b.to)?);
-        let poses = meshes(rig, &[pose(m1, &b.x1), pose(m2, &b.x2)])?;
+        let poses = meshes(inp.rig, &[pose(m1, &b.x1), pose(m2, &b.x2)])?;
         let half = poses.len() / 2;
         let caption = format!("{} → {} (mesh distance {:.3})", b.from, b.to, b.mesh_distance.unwrap_or(f64::NAN));
         bridge_figs.push((caption, poses[..half].to_vec(), poses[half..].to_vec()));
     }
     let synth = curves::read(&args.curves)?;
-    let filmstrip = match synth.script.first().cloned() {
-        None => None,
-        Some(name) => {
-            let n = synth.controls.len();
-            let rows: Vec<usize> =
-                (0..synth.script.len()).filter(|&r| synth.script[r] == name).step_by(12).take(16).collect();
-            let poses: Vec<Vec<f64>> = rows.iter().map(|&r| synth.values[r * n..(r + 1) * n].to_vec()).collect();
-            let m = meshes(rig, &poses)?;
-            let d = m.len() / poses.len().max(1);
-            let frames = rows
-                .iter()
-                .enumerate()
-                .map(|(i, &r)| (format!("{} · {:.1} s", synth.model[r], synth.time[r]), m[i * d..(i + 1) * d].to_vec()))
-                .collect();
-            Some((format!("Script `{name}`, every 12th frame (0.5 s), captioned with the model that made it."), frames))
+    let filmstrip = filmstrip(inp.rig, &synth)?;
+    let mut missing = missing(inp.systems, inp.requests, inp.labels);
+    let player = player::build(&player::Inputs {
+        rig: inp.rig,
+        training: inp.training,
+        labeled: inp.labeled,
+        requests: inp.requests,
+        systems: inp.systems,
+        bridges: inp.links,
+        models: &models,
+        curves: &synth,
+        labels: inp.labels,
+        window: args.window,
+    })?;
+    if player.groups.is_empty() {
+        missing.push("No transition request to play: the player shows the synthesized scripts only.".into());
+    }
+    let traces = match &args.gplvm_trace {
+        Some(p) => traces(p)?,
+        None => {
+            missing.push("No GPLVM trace given (--gplvm-trace): the fit-trace figure is empty.".into());
+            vec![]
         }
     };
+    let latencies = inp
+        .systems
+        .iter()
+        .zip(inp.measured)
+        .map(|(s, per)| {
+            let unanswered = inp.requests.iter().filter(|r| !s.answered(r)).count();
+            (s.shown.clone(), per.iter().map(|m| m.latency).collect(), unanswered)
+        })
+        .collect();
+    Ok(html::Page {
+        name: &args.name,
+        markdown: inp.markdown,
+        latents,
+        latent_bridges,
+        bridges: bridge_figs,
+        filmstrip,
+        triangles: inp.rig.0.triangles(),
+        camera_mesh: inp.camera_mesh,
+        speed: inp.speed,
+        latencies,
+        traces,
+        labels: inp.labels,
+        player: Some(player),
+        missing,
+        provenance: provenance_lines(args, provenance),
+    })
+}
+
+/// The first two latent coordinates (0 where there are fewer).
+fn xy(x: &[f64]) -> [f64; 2] {
+    [x.first().copied().unwrap_or(0.0), x.get(1).copied().unwrap_or(0.0)]
+}
+
+/// Every 12th frame (0.5 s) of the first synthesized script, at most 16.
+fn filmstrip(rig: RigRef<'_>, synth: &curves::Curves) -> StageResult<Option<(String, Vec<html::Picture>)>> {
+    let Some(name) = synth.script.first().cloned() else { return Ok(None) };
+    let n = synth.controls.len();
+    let rows: Vec<usize> = (0..synth.script.len()).filter(|&r| synth.script[r] == name).step_by(12).take(16).collect();
+    let poses: Vec<Vec<f64>> = rows.iter().map(|&r| synth.values[r * n..(r + 1) * n].to_vec()).collect();
+    let m = meshes(rig, &poses)?;
+    let d = m.len() / poses.len().max(1);
+    let frames = rows
+        .iter()
+        .enumerate()
+        .map(|(i, &r)| (format!("{} · {:.1} s", synth.model[r], synth.time[r]), m[i * d..(i + 1) * d].to_vec()))
+        .collect();
+    Ok(Some((format!("Script `{name}`, every 12th frame (0.5 s), captioned with the model that made it."), frames)))
+}
+
+/// What the inputs lack, one sentence each: systems of [`KNOWN`] not given, ordered label
+/// pairs without requests, and pairs a given system answered none of.
+pub fn missing(systems: &[System], requests: &[Request], labels: &[String]) -> Vec<String> {
+    let mut out = Vec::new();
+    for (id, shown) in KNOWN.iter().filter(|(id, _)| !systems.iter().any(|s| s.id == *id)) {
+        out.push(format!(
+            "{shown} (`{id}`) was not given to this run: it is absent from every table, figure and the player."
+        ));
+    }
+    let mut none = Vec::new();
+    let mut unanswered: Vec<Vec<String>> = vec![Vec::new(); systems.len()];
+    for a in labels {
+        for b in labels.iter().filter(|b| *b != a) {
+            let reqs: Vec<&Request> = requests.iter().filter(|r| &r.from == a && &r.to == b).collect();
+            if reqs.is_empty() {
+                none.push(format!("{a} → {b}"));
+                continue;
+            }
+            for (s, u) in systems.iter().zip(&mut unanswered) {
+                if !reqs.iter().any(|r| s.answered(r)) {
+                    u.push(format!("{a} → {b}"));
+                }
+            }
+        }
+    }
+    for (s, u) in systems.iter().zip(&unanswered).filter(|(_, u)| !u.is_empty()) {
+        out.push(format!(
+            "{} answered none of the requests of {} label pairs (the player shows them as “no answer”): {}.",
+            s.shown,
+            u.len(),
+            u.join(", ")
+        ));
+    }
+    if !none.is_empty() {
+        out.push(format!("No requests for {} of the label pairs: {}.", none.len(), none.join(", ")));
+    }
+    out
+}
+
+/// Per label (in file order) the objective by iteration, from a `gplvm_trace` table.
+fn traces(path: &Path) -> StageResult<Vec<html::Trace>> {
+    let t = Table::read(path, reprise_artifact::gplvm::GPLVM_TRACE)?;
+    let (label, iteration, value) = (t.strings("label")?, t.i64("iteration")?, t.f64("value")?);
+    let mut out: Vec<html::Trace> = Vec::new();
+    for r in 0..t.rows() {
+        match out.iter_mut().find(|(l, _)| *l == label[r]) {
+            Some((_, v)) => v.push((iteration[r], value[r])),
+            None => out.push((label[r].clone(), vec![(iteration[r], value[r])])),
+        }
+    }
+    Ok(out)
+}
+
+/// The provenance lines: stage, commit, pipeline hash, machine, inputs, stage times.
+fn provenance_lines(args: &Args, provenance: &reprise_artifact::Provenance) -> Vec<(String, String)> {
     let commit = std::process::Command::new("git")
         .args(["rev-parse", "HEAD"])
         .output()
         .ok()
         .filter(|o| o.status.success())
         .map_or("unknown".into(), |o| String::from_utf8_lossy(&o.stdout).trim().to_string());
-    let pipeline = reprise_artifact::provenance::hash_file(std::path::Path::new("pipeline.toml"))
+    let pipeline = reprise_artifact::provenance::hash_file(Path::new("pipeline.toml"))
         .unwrap_or_else(|_| "no pipeline.toml beside the run".into());
     let mut prov = vec![
         ("stage".to_string(), format!("{} {}", provenance.stage, provenance.stage_version)),
@@ -92,19 +237,7 @@ pub fn figures<'a>(
     if let Some(lock) = args.lock.as_ref().and_then(|p| std::fs::read_to_string(p).ok()) {
         prov.extend(stage_times(&lock));
     }
-    Ok(html::Page {
-        name: &args.name,
-        summary_md: md,
-        latents,
-        bridges: bridge_figs,
-        filmstrip,
-        triangles: rig.0.triangles(),
-        camera_mesh,
-        speed,
-        labels,
-        systems,
-        provenance: prov,
-    })
+    prov
 }
 
 /// CPU model and cores, from /proc/cpuinfo where there is one.

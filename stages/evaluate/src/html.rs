@@ -1,12 +1,31 @@
-//! The self-contained HTML report: figures as inline SVG and PNG data URIs, no scripts,
-//! no external resources.
+//! The self-contained HTML report. Sections, in order: what is missing from the inputs,
+//! conclusions (one sentence per overall metric, from [`report::best`] and the metric rows),
+//! the metric tables (HTML, CIs shown, the long one sortable), the transition player and the
+//! synthesized scripts (`assets/player.js`, data inline), the figures ([`crate::charts`],
+//! PNG renders), the definitions and the provenance. No external resources; everything but
+//! the player reads without JavaScript.
+//!
+//! The player's data: `<script type="application/json" id="player-data">` holds
+//! [`Player`] plus `encoding` (`k`, `dim`, `frames`); `<script id="player-mesh">` holds
+//! base64 of, little-endian and in order: mean (f32 × dim), coordinate scales (f32 × k),
+//! basis row scales (f32 × k), basis (i16 × k·dim), codes (i16 × frames·k) — see
+//! [`crate::encode`].
 
 use std::fmt::Write as _;
 
 use base64::Engine as _;
 
+use crate::aggregate::PAIRED;
+use crate::charts::{self, LatentPanel};
+use crate::encode::Encoded;
+use crate::measure::{Phase, PlausibilityReference as Reference, Space};
+use crate::player::{Player, PHASES};
 use crate::render::{png, render, Camera};
+use crate::report::{self, cell, find, Verdict, OVERALL};
 use crate::Metric;
+
+/// One label's optimisation trace: (label, per iteration (iteration, objective)).
+pub type Trace = (String, Vec<(i64, f64)>);
 
 /// A mesh with its caption.
 pub type Picture = (String, Vec<f64>);
@@ -15,10 +34,12 @@ pub type Picture = (String, Vec<f64>);
 pub struct Page<'a> {
     /// Pipeline name.
     pub name: &'a str,
-    /// The Markdown report's overall table and conclusions, as HTML-escaped Markdown.
-    pub summary_md: &'a str,
-    /// Per label: (label, per segment: latent points (x0, x1)).
-    pub latents: Vec<(String, Vec<Vec<[f64; 2]>>)>,
+    /// The Markdown report (its definitions are shown).
+    pub markdown: &'a str,
+    /// Per label its latent space.
+    pub latents: Vec<LatentPanel>,
+    /// Rank-1 bridges: (index of A in `latents`, x1, index of B, x2).
+    pub latent_bridges: Vec<(usize, [f64; 2], usize, [f64; 2])>,
     /// Bridge pose pairs: (caption, mesh of M1's pose, mesh of M2's pose).
     pub bridges: Vec<(String, Vec<f64>, Vec<f64>)>,
     /// Filmstrip: (caption, per frame (label, mesh)).
@@ -30,44 +51,370 @@ pub struct Page<'a> {
     /// Mean peak vertex speed around transitions: (system, offsets from the first target
     /// frame, values).
     pub speed: Vec<(String, Vec<i64>, Vec<f64>)>,
+    /// Per system: (shown name, latencies of answered requests in s, unanswered requests).
+    pub latencies: Vec<(String, Vec<f64>, usize)>,
+    /// Per label the GPLVM objective by iteration.
+    pub traces: Vec<Trace>,
     /// Labels in order (for the coverage map).
     pub labels: &'a [String],
-    /// Systems compared: (id, shown name).
-    pub systems: &'a [(String, String)],
+    /// The player's content (`None`: it could not be built; the reason is in `missing`).
+    pub player: Option<Player>,
+    /// What the inputs lack: one sentence each.
+    pub missing: Vec<String>,
     /// Provenance lines.
     pub provenance: Vec<(String, String)>,
 }
 
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+/// `s` with HTML's special characters escaped.
+pub fn esc(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('\'', "&#39;")
 }
 
-const PALETTE: [&str; 10] =
-    ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
+const STYLE: &str = "body{font-family:system-ui,sans-serif;max-width:1240px;margin:2em auto;padding:0 1em;color:#222;line-height:1.4}\
+table{border-collapse:collapse;margin:.5em 0 1.2em}td,th{border:1px solid #ccc;padding:3px 8px;text-align:left;font-size:13px;vertical-align:top}\
+th{background:#f3f3f3}td.num{text-align:right;font-variant-numeric:tabular-nums}td.best{font-weight:bold;background:#eef7ee}\
+.row{display:flex;flex-wrap:wrap;gap:10px}figure{margin:0;text-align:center;font-size:11px}.fig{border:1px solid #ddd;max-width:100%;height:auto}\
+.missing{background:#fff4e0;border-left:4px solid #e8a33d;padding:.5em 1em}.conclusions li{margin:.3em 0}\
+.player{border:1px solid #ccc;padding:.6em;margin:1em 0;background:#fafafa}.player .controls{display:flex;gap:8px;align-items:center;flex-wrap:wrap}\
+.player input[type=range]{flex:1;min-width:200px}.player .panels{display:flex;flex-wrap:wrap;gap:8px;margin-top:.6em}\
+.player .panel{text-align:left}.player canvas{border:1px solid #ddd;background:#f5f5f5}.player .cap{font-size:11.5px;margin-top:3px}\
+.player .bridge{color:#7a3}code{background:#f3f3f3;padding:0 3px}nav a{margin-right:1em}";
 
-fn latent_svg(label: &str, segs: &[Vec<[f64; 2]>]) -> String {
-    let (w, h) = (260.0, 220.0);
-    let pts = segs.iter().flatten();
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in pts {
-        for a in 0..2 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
+/// Records script errors on the root element (`data-js-errors`, `data-js-error`) so a
+/// headless run can read them from the DOM.
+const ERROR_HOOK: &str = "<script>window.addEventListener('error',function(e){var r=document.documentElement;\
+r.dataset.jsErrors=(+(r.dataset.jsErrors||0))+1;r.dataset.jsError=String(e.message);});</script>";
+
+const PLAYER_JS: &str = include_str!("../assets/player.js");
+
+/// The page.
+pub fn page(p: &Page<'_>, metrics: &[Metric], ctx: &report::Context<'_>) -> String {
+    let mut s = String::new();
+    let others: Vec<&str> = ctx.systems.iter().skip(1).map(|(_, s)| s.as_str()).collect();
+    let _ = write!(
+        s,
+        "<!doctype html><html lang='en'><head><meta charset='utf-8'><title>reprise — {n}</title><style>{STYLE}</style>{ERROR_HOOK}</head><body>\
+         <h1>{n}: reprise against {o}</h1><nav><a href='#conclusions'>Conclusions</a><a href='#metrics'>Metrics</a>\
+         <a href='#player'>Player</a><a href='#figures'>Figures</a><a href='#definitions'>Definitions</a><a href='#provenance'>Provenance</a></nav>",
+        n = esc(p.name),
+        o = esc(&others.join(", "))
+    );
+    missing(&mut s, &p.missing);
+    conclusions(&mut s, metrics, ctx);
+    tables(&mut s, metrics, ctx);
+    player(&mut s, p.player.as_ref());
+    figures(&mut s, p, metrics, ctx);
+    definitions(&mut s, p.markdown);
+    s += "<section id='provenance'><h2>Provenance</h2><table>";
+    for (k, v) in &p.provenance {
+        let _ = write!(s, "<tr><td>{}</td><td>{}</td></tr>", esc(k), esc(v));
+    }
+    s += "</table></section>";
+    if let Some(pl) = &p.player {
+        embed(&mut s, pl);
+    }
+    let _ = writeln!(s, "<script>{}</script></body></html>", PLAYER_JS.replace("</script", "<\\/script"));
+    s
+}
+
+fn missing(s: &mut String, notes: &[String]) {
+    if notes.is_empty() {
+        return;
+    }
+    *s += "<section id='missing' class='missing'><h2>What is missing</h2><ul>";
+    for n in notes {
+        let _ = write!(s, "<li>{}</li>", esc(n));
+    }
+    *s += "</ul></section>";
+}
+
+/// What each overall metric measures and which way is better, for the conclusions.
+fn describe(metric: &str) -> &'static str {
+    match metric {
+        "answered" => "share of requests answered (higher is better)",
+        "success" => "share answered without a pose jump (higher is better)",
+        "coverage" => "share reaching the target label in time (higher is better)",
+        "latency_s" => "seconds from the request to the first frame of the target (lower is better)",
+        "peak_accel_ratio" => "peak vertex acceleration over the transition, × training p95 (lower is smoother)",
+        "peak_jerk_ratio" => "peak vertex jerk over the transition, × training p95 (lower is smoother)",
+        "plausibility_raw_scaled" => "distance to the nearest training frame, × median frame step (lower is closer)",
+        "plausibility_floor_scaled" => {
+            "distance to the nearest training frame or its PCA projection, × median frame step (lower is closer)"
+        }
+        "variety" => "RMS vertex distance between answers under two seeds (not ranked)",
+        _ => "",
+    }
+}
+
+/// Every system's value of `metric` overall, `name value [lo, hi]`, joined.
+fn values(m: &[Metric], ctx: &report::Context<'_>, metric: &str) -> String {
+    ctx.systems
+        .iter()
+        .map(|(id, shown)| {
+            let v = if metric == "variety" && ctx.deterministic.contains(id) {
+                "0 (deterministic)".into()
+            } else {
+                cell(find(m, id, metric, "all", "all"))
+            };
+            format!("{} {v}", esc(shown))
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+fn conclusions(s: &mut String, m: &[Metric], ctx: &report::Context<'_>) {
+    *s += "<section id='conclusions'><h2>Conclusions</h2><p>All label pairs; mean [95 % bootstrap CI]. One \
+           sentence per overall metric; the verdicts are the Markdown report's.</p><ul class='conclusions'>";
+    for name in OVERALL {
+        let what = describe(name);
+        let verdict = match report::best(m, ctx, name) {
+            _ if name == "variety" => {
+                "Not ranked (it rewards noise as much as real alternatives; read it beside plausibility)".into()
+            }
+            Some(Verdict::Best(b, false)) => format!("<b>{}</b> is best, clear of the runner-up's CI", esc(b)),
+            Some(Verdict::Best(b, true)) => {
+                format!("<b>{}</b> is best, but its CI overlaps the runner-up's (not a clear win)", esc(b))
+            }
+            Some(Verdict::Tie(t)) => format!("<b>{}</b> tie exactly", esc(&t.join(", "))),
+            None => "Not ranked here (fewer than two systems measured)".into(),
+        };
+        let _ = write!(s, "<li><code>{name}</code> ({what}): {verdict} — {}.</li>", values(m, ctx, name));
+    }
+    *s += "<li>Systems that replay training frames score a raw plausibility of 0 away from their blends; reprise's \
+           poses live in each label's PCA subspace, so compare <code>plausibility_floor_*</code> for like with like.</li></ul></section>";
+}
+
+/// An HTML table: header cells, then rows of (cell, is-best, numeric) triples.
+fn table(s: &mut String, class: &str, head: &[String], rows: &[Vec<(String, bool, bool)>]) {
+    let _ = write!(s, "<table class='{class}'><thead><tr>");
+    for h in head {
+        let _ = write!(s, "<th>{h}</th>");
+    }
+    *s += "</tr></thead><tbody>";
+    for r in rows {
+        *s += "<tr>";
+        for (c, best, num) in r {
+            let cls = match (best, num) {
+                (true, _) => " class='num best'",
+                (false, true) => " class='num'",
+                _ => "",
+            };
+            let _ = write!(s, "<td{cls}>{c}</td>");
+        }
+        *s += "</tr>";
+    }
+    *s += "</tbody></table>";
+}
+
+fn text(c: &str) -> (String, bool, bool) {
+    (c.to_string(), false, false)
+}
+
+fn tables(s: &mut String, m: &[Metric], ctx: &report::Context<'_>) {
+    let names: Vec<String> = ctx.systems.iter().map(|(_, n)| esc(n)).collect();
+    *s += "<section id='metrics'><h2>Metric tables</h2><h3>Overall (mean [95 % CI]; best in bold)</h3>";
+    let mut head = vec!["metric".to_string()];
+    head.extend(names.iter().cloned());
+    head.push("best".into());
+    let rows: Vec<Vec<(String, bool, bool)>> = OVERALL
+        .iter()
+        .map(|name| {
+            let verdict = report::best(m, ctx, name);
+            let winners: Vec<&str> = match &verdict {
+                Some(Verdict::Best(b, _)) => vec![*b],
+                Some(Verdict::Tie(t)) => t.clone(),
+                None => vec![],
+            };
+            let mut r = vec![text(&format!("<code>{name}</code>"))];
+            for (id, shown) in ctx.systems {
+                let v = if *name == "variety" && ctx.deterministic.contains(id) {
+                    "0 (deterministic)".into()
+                } else {
+                    cell(find(m, id, name, "all", "all"))
+                };
+                r.push((v, winners.contains(&shown.as_str()) && *name != "variety", true));
+            }
+            r.push(text(&esc(&if *name == "variety" { "not ranked".into() } else { winners.join(", ") })));
+            r
+        })
+        .collect();
+    table(s, "overall", &head, &rows);
+
+    *s += "<h3>Plausibility by phase (lower is closer to training poses)</h3>";
+    let mut head = vec!["reference".to_string(), "space".into(), "phase".into()];
+    head.extend(names.iter().cloned());
+    let mut rows = Vec::new();
+    for r in Reference::ALL {
+        for sp in Space::ALL {
+            for phase in Phase::ALL.into_iter().map(Some).chain(std::iter::once(None)) {
+                let name = crate::measure::plausibility::metric_name(r, sp, phase);
+                let mut row = vec![text(r.name()), text(sp.name()), text(phase.map_or("answer", Phase::name))];
+                row.extend(ctx.systems.iter().map(|(id, _)| (cell(find(m, id, &name, "all", "all")), false, true)));
+                rows.push(row);
+            }
         }
     }
-    let sx = |v: f64| 10.0 + (v - lo[0]) / (hi[0] - lo[0]).max(1e-12) * (w - 20.0);
-    let sy = |v: f64| h - 20.0 - (v - lo[1]) / (hi[1] - lo[1]).max(1e-12) * (h - 40.0);
-    let mut s = format!("<svg xmlns='http://www.w3.org/2000/svg' width='{w}' height='{h}' class='fig'><rect width='100%' height='100%' fill='white'/><text x='8' y='14' font-size='12'>{}</text>", esc(label));
-    for (i, seg) in segs.iter().enumerate() {
-        let path: Vec<String> = seg.iter().map(|p| format!("{:.1},{:.1}", sx(p[0]), sy(p[1]))).collect();
-        let _ = write!(
-            s,
-            "<polyline fill='none' stroke='{}' stroke-width='1.2' points='{}'/>",
-            PALETTE[i % 10],
-            path.join(" ")
-        );
+    table(s, "phases", &head, &rows);
+
+    if let Some((ours, ours_shown)) = ctx.systems.first() {
+        let _ = write!(s, "<h3>Paired, on requests both answered ({} − other)</h3>", esc(ours_shown));
+        let head: Vec<String> =
+            ["against", "metric", "difference [95 % CI]", "n", "favours"].map(String::from).to_vec();
+        let mut rows = Vec::new();
+        for (id, shown) in ctx.systems.iter().skip(1) {
+            for (name, unit) in PAIRED {
+                let Some(d) = find(m, &format!("{ours} vs {id}"), &format!("paired_{name}"), "all", "all") else {
+                    continue;
+                };
+                let side = match (d.ci_low, d.ci_high) {
+                    (_, Some(hi)) if hi < 0.0 => format!("{ours_shown} (CI below 0)"),
+                    (Some(lo), _) if lo > 0.0 => format!("{shown} (CI above 0)"),
+                    _ => "neither (CI spans 0)".into(),
+                };
+                rows.push(vec![
+                    text(&esc(shown)),
+                    text(&format!("<code>{name}</code> ({unit})")),
+                    (cell(Some(d)), false, true),
+                    (d.n.to_string(), false, true),
+                    text(&esc(&side)),
+                ]);
+            }
+        }
+        table(s, "paired", &head, &rows);
     }
-    s + "</svg>"
+
+    *s += "<h3>Model quality (held-out RMS vertex error, mesh units)</h3>";
+    let head: Vec<String> = ["label", "held-out GPLVM", "held-out PCA (q)", "PCA d = 3, scaled", "PCA d = 3, unscaled"]
+        .map(String::from)
+        .to_vec();
+    let rows: Vec<Vec<(String, bool, bool)>> = ctx
+        .labels
+        .iter()
+        .map(|l| {
+            let v = |sys, name| {
+                (find(m, sys, name, l, "").map_or("–".to_string(), |x| format!("{:.4}", x.value)), false, true)
+            };
+            vec![
+                text(&esc(l)),
+                v("gplvm", "heldout_mesh_rmse"),
+                v("pca", "heldout_mesh_rmse"),
+                v("scaled", "ablation_mesh_rmse"),
+                v("unscaled", "ablation_mesh_rmse"),
+            ]
+        })
+        .collect();
+    table(s, "quality", &head, &rows);
+
+    *s += "<details><summary>Every overall row (click a header to sort)</summary>";
+    let head: Vec<String> =
+        ["system", "metric", "from", "to", "value", "95 % CI", "n", "unit"].map(String::from).to_vec();
+    let rows: Vec<Vec<(String, bool, bool)>> = m
+        .iter()
+        .filter(|m| m.to == "all" || m.to.is_empty())
+        .map(|m| {
+            let ci = match (m.ci_low, m.ci_high) {
+                (Some(a), Some(b)) => format!("[{a:.4}, {b:.4}]"),
+                _ => String::new(),
+            };
+            vec![
+                text(&esc(&m.system)),
+                text(&esc(&m.metric)),
+                text(&esc(&m.from)),
+                text(&esc(&m.to)),
+                (format!("{:.4}", m.value), false, true),
+                (ci, false, true),
+                (m.n.to_string(), false, true),
+                text(&esc(&m.unit)),
+            ]
+        })
+        .collect();
+    table(s, "sortable", &head, &rows);
+    *s += "</details><p>Per-pair values are in metrics.parquet; the per-pair latency and coverage grids in report.md.</p></section>";
+}
+
+/// The player's HTML (controls; panels are built by the script).
+fn player_box(id: &str, label: &str) -> String {
+    format!(
+        "<div class='player' id='{id}' data-ready='false' tabindex='0'><div class='controls'><label>{label} <select></select></label>\
+         <button class='prev' title='previous frame (←)'>◀ frame</button><button class='play' title='play/pause (space)'>▶ play</button>\
+         <button class='next' title='next frame (→)'>frame ▶</button><input type='range' step='1' aria-label='frame'>\
+         <select class='speed' aria-label='speed'><option value='1'>1×</option><option value='0.5'>½×</option><option value='0.25'>¼×</option></select>\
+         <span class='time'></span></div><div class='panels'></div>\
+         <noscript><p>The player needs JavaScript; everything else on this page reads without it.</p></noscript></div>"
+    )
+}
+
+fn player(s: &mut String, p: Option<&Player>) {
+    *s += "<section id='player'><h2>Transitions, side by side</h2>";
+    let Some(p) = p else {
+        *s += "<p>No player: nothing to play (see the missing inputs above).</p></section>";
+        return;
+    };
+    let _ = write!(
+        s,
+        "<p><b>Which requests.</b> {}</p><p>Each panel is one system answering the same request, aligned at the frame \
+         the transition is asked. Step with ← →, play with space. The caption names the label whose model (or clip) \
+         produced the frame, the phase (hold: before the request; reach: on the way to the target; blend: the first \
+         frames of the target; settle: after), for reprise the bridge it went through, and the nearest training frame \
+         (in mesh space, among the nearest in scaled control space) with its RMS vertex distance.</p>",
+        esc(&p.rule)
+    );
+    if let Some(e) = &p.encoded {
+        *s += &encoding_note(e, p.mesh_step);
+    }
+    *s += &player_box("transition-player", "request");
+    *s += "<h3>Synthesized scripts</h3><p>The synthesize stage's scripts (the <code>curves</code> input), played \
+           with the model and command that produced each frame and the particle's latent point.</p>";
+    if p.scripts.is_empty() {
+        *s += "<p>No synthesized scripts in the curves input.</p>";
+    } else {
+        *s += &player_box("script-player", "script");
+    }
+    *s += "</section>";
+}
+
+fn encoding_note(e: &Encoded, mesh_step: f64) -> String {
+    format!(
+        "<p class='encoding'><b>Encoding.</b> {} frames of {} vertices as a mesh-space PCA basis of {} components \
+         fitted to the shown frames (int16 per row), coordinates int16 per frame: {:.2} MB before base64. \
+         Reconstruction RMS vertex error: mean {:.2e}, max {:.2e} mesh units (target {:.2e} = {:.0} % of the training \
+         data's median per-frame motion, {:.2e}).</p>",
+        e.codes.len() / e.k.max(1),
+        e.dim / 3,
+        e.k,
+        e.bytes() as f64 / 1e6,
+        e.mean_error,
+        e.max_error,
+        e.target,
+        100.0 * crate::player::ERROR_SHARE,
+        mesh_step
+    )
+}
+
+/// The player's JSON and base64 payload (see the module doc for the layout).
+fn embed(s: &mut String, p: &Player) {
+    let Some(e) = &p.encoded else { return };
+    let mut json = serde_json::to_value(p).unwrap_or_default();
+    if let Some(o) = json.as_object_mut() {
+        o.insert(
+            "encoding".into(),
+            serde_json::json!({ "k": e.k, "dim": e.dim, "frames": e.codes.len() / e.k.max(1) }),
+        );
+        o.insert("phases".into(), serde_json::json!(PHASES));
+    }
+    let mut bytes: Vec<u8> = Vec::with_capacity(e.bytes());
+    for v in e.mean.iter().chain(&e.scale).chain(&e.basis_scale) {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    for v in e.basis.iter().chain(&e.codes) {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    let _ = write!(
+        s,
+        "<script type='application/json' id='player-data'>{}</script><script type='application/octet-stream' id='player-mesh'>{}</script>",
+        json.to_string().replace("</", "<\\/"),
+        base64::engine::general_purpose::STANDARD.encode(bytes)
+    );
 }
 
 fn image(cam: &Camera, mesh: &[f64], tris: &[[u32; 3]], tint: [f64; 3], size: usize, caption: &str) -> String {
@@ -77,153 +424,111 @@ fn image(cam: &Camera, mesh: &[f64], tris: &[[u32; 3]], tint: [f64; 3], size: us
     format!("<figure><img alt='{c}' width='{size}' height='{size}' src='data:image/png;base64,{b64}'/><figcaption>{c}</figcaption></figure>", c = esc(caption))
 }
 
-fn speed_svg(series: &[(String, Vec<i64>, Vec<f64>)]) -> String {
-    let (w, h) = (560.0, 240.0);
-    let all: Vec<f64> = series.iter().flat_map(|s| s.2.iter().copied()).filter(|v| v.is_finite()).collect();
-    let max = all.iter().copied().fold(0.0, f64::max).max(1e-12);
-    let (omin, omax) =
-        series.iter().flat_map(|s| s.1.iter().copied()).fold((i64::MAX, i64::MIN), |(a, b), o| (a.min(o), b.max(o)));
-    let sx = |o: i64| 40.0 + (o - omin) as f64 / ((omax - omin).max(1)) as f64 * (w - 60.0);
-    let sy = |v: f64| h - 30.0 - v / max * (h - 50.0);
-    let mut s = format!("<svg xmlns='http://www.w3.org/2000/svg' width='{w}' height='{h}' class='fig'><rect width='100%' height='100%' fill='white'/>");
-    let _ =
-        write!(s, "<line x1='{x}' y1='20' x2='{x}' y2='{}' stroke='#999' stroke-dasharray='4'/>", h - 30.0, x = sx(0));
+fn figures(s: &mut String, p: &Page<'_>, m: &[Metric], ctx: &report::Context<'_>) {
+    let shown: Vec<String> = ctx.systems.iter().map(|(_, n)| n.clone()).collect();
+    *s += "<section id='figures'><h2>Figures</h2>";
     let _ = write!(
         s,
-        "<text x='{}' y='{}' font-size='11'>frames from the first frame of the target label</text>",
-        w / 2.0 - 120.0,
-        h - 8.0
+        "<h3>How long does each system take?</h3><div id='latency'>{}</div>",
+        charts::latency_histograms(&p.latencies)
     );
-    let _ = write!(s, "<text x='4' y='14' font-size='11'>peak vertex speed (max {max:.3} mesh units/s)</text>");
-    for (i, (name, off, vals)) in series.iter().enumerate() {
-        let pts: Vec<String> = off
-            .iter()
-            .zip(vals)
-            .filter(|(_, v)| v.is_finite())
-            .map(|(o, v)| format!("{:.1},{:.1}", sx(*o), sy(*v)))
-            .collect();
-        let _ =
-            write!(s, "<polyline fill='none' stroke='{}' stroke-width='2' points='{}'/>", PALETTE[i], pts.join(" "));
-        let _ = write!(
-            s,
-            "<text x='{}' y='{}' font-size='12' fill='{}'>{}</text>",
-            w - 130.0,
-            30.0 + 16.0 * i as f64,
-            PALETTE[i],
-            esc(name)
-        );
-    }
-    s + "</svg>"
-}
-
-fn heat_svg(title: &str, labels: &[String], value: impl Fn(&str, &str) -> Option<f64>) -> String {
-    let cell = 34.0;
-    let left = 90.0;
-    let top = 90.0;
-    let n = labels.len() as f64;
-    let mut s = format!(
-        "<svg xmlns='http://www.w3.org/2000/svg' width='{}' height='{}' class='fig'><rect width='100%' height='100%' fill='white'/><text x='4' y='14' font-size='12'>{}</text>",
-        left + n * cell + 10.0,
-        top + n * cell + 10.0,
-        esc(title)
-    );
-    for (i, a) in labels.iter().enumerate() {
-        let _ = write!(s, "<text x='4' y='{}' font-size='11'>{}</text>", top + i as f64 * cell + 21.0, esc(a));
-        let _ = write!(
-            s,
-            "<text x='{x}' y='{y}' font-size='11' transform='rotate(-60 {x} {y})'>{}</text>",
-            esc(a),
-            x = left + i as f64 * cell + 14.0,
-            y = top - 6.0
-        );
-        for (j, b) in labels.iter().enumerate() {
-            let (x, y) = (left + j as f64 * cell, top + i as f64 * cell);
-            let (fill, text) = match value(a, b) {
-                Some(v) => {
-                    let g = (255.0 - 180.0 * v.clamp(0.0, 1.0)) as u8;
-                    (format!("rgb({g},{},{g})", 255 - (60.0 * v.clamp(0.0, 1.0)) as u8), format!("{v:.2}"))
-                }
-                None => ("#eee".into(), String::new()),
-            };
-            let _ = write!(s, "<rect x='{x}' y='{y}' width='{cell}' height='{cell}' fill='{fill}' stroke='white'/><text x='{}' y='{}' font-size='10'>{text}</text>", x + 4.0, y + 21.0);
-        }
-    }
-    s + "</svg>"
-}
-
-/// The page.
-pub fn page(p: &Page<'_>, metrics: &[Metric]) -> String {
-    let mut s = String::new();
-    let _ = write!(
-        s,
-        "<!doctype html><html lang='en'><head><meta charset='utf-8'><title>reprise — {n}</title><style>\
-         body{{font-family:system-ui,sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}}\
-         table{{border-collapse:collapse;margin:1em 0}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:left;font-size:13px}}\
-         .row{{display:flex;flex-wrap:wrap;gap:10px}}figure{{margin:0;text-align:center;font-size:11px}}\
-         .fig{{border:1px solid #ddd}}pre{{white-space:pre-wrap;background:#f7f7f7;padding:1em}}</style></head><body>\
-         <h1>reprise against {others} — {n}</h1>",
-        n = esc(p.name),
-        others = esc(&p.systems.iter().skip(1).map(|(_, s)| s.as_str()).collect::<Vec<_>>().join(", "))
-    );
-    let _ = write!(s, "<h2>Summary</h2><pre>{}</pre>", esc(p.summary_md));
-    let _ = write!(s, "<h2>Latent spaces (the paper's Fig. 2)</h2><p>Each label's training latents (x0 against x1), one polyline per segment.</p><div class='row' id='latents'>");
-    for (label, segs) in &p.latents {
-        s += &latent_svg(label, segs);
-    }
-    s += "</div>";
-    let cam = Camera::fit(&[p.camera_mesh], 160, 160);
-    let _ = write!(s, "<h2>Bridges (Fig. 3)</h2><p>The closest bridges: M1's pose at x1 and M2's at x2, rendered through the rig.</p><div class='row' id='bridges'>");
-    for (caption, a, b) in &p.bridges {
-        s += "<div class='row'>";
-        s += &image(&cam, a, p.triangles, [0.85, 0.6, 0.45], 160, &format!("{caption} — from"));
-        s += &image(&cam, b, p.triangles, [0.45, 0.6, 0.85], 160, &format!("{caption} — to"));
-        s += "</div>";
-    }
-    s += "</div>";
-    if let Some((caption, frames)) = &p.filmstrip {
-        let _ =
-            write!(s, "<h2>Synthesized sequence (Fig. 4)</h2><p>{}</p><div class='row' id='filmstrip'>", esc(caption));
-        for (label, mesh) in frames {
-            s += &image(&cam, mesh, p.triangles, [0.8, 0.7, 0.55], 120, label);
-        }
-        s += "</div>";
-    }
-    let _ = write!(s, "<h2>Mesh velocity around transitions</h2><p>Mean over answered requests of the per-frame peak vertex speed, aligned at the first frame of the target label.</p><div id='velocity'>{}</div>", speed_svg(&p.speed));
-    let cov = |sys: &str| {
-        let sys = sys.to_string();
-        move |a: &str, b: &str| {
-            metrics
+    *s += "<h3>Where in a transition do poses leave the training data?</h3><div class='row' id='plausibility'>";
+    for r in Reference::ALL {
+        for sp in Space::ALL {
+            let values: Vec<Vec<charts::Bar>> = Phase::ALL
                 .iter()
-                .find(|m| m.system == sys && m.metric == "coverage" && m.from == a && m.to == b)
-                .map(|m| m.value)
+                .map(|ph| {
+                    let name = crate::measure::plausibility::metric_name(r, sp, Some(*ph));
+                    ctx.systems
+                        .iter()
+                        .map(|(id, _)| {
+                            find(m, id, &name, "all", "all")
+                                .filter(|x| x.n > 0)
+                                .map(|x| (x.value, x.ci_low.unwrap_or(x.value), x.ci_high.unwrap_or(x.value)))
+                        })
+                        .collect()
+                })
+                .collect();
+            let title = format!("plausibility, {} reference, {} space", r.name(), sp.name());
+            *s += &charts::grouped_bars(&title, &Phase::ALL.map(Phase::name), &shown, &values);
         }
-    };
-    s += "<h2>Coverage (label × label)</h2><div class='row' id='coverage'>";
-    for (id, shown) in p.systems {
-        s += &heat_svg(shown, p.labels, cov(id));
     }
-    s += "</div>";
-    s += "<h2>All metrics</h2><table><tr><th>system</th><th>metric</th><th>from</th><th>to</th><th>value</th><th>95 % CI</th><th>n</th><th>unit</th></tr>";
-    for m in metrics.iter().filter(|m| m.to == "all" || m.to.is_empty()) {
-        let ci = match (m.ci_low, m.ci_high) {
-            (Some(a), Some(b)) => format!("[{a:.4}, {b:.4}]"),
-            _ => String::new(),
+    *s += "</div><h3>Which pairs does each system reach in time?</h3><div class='row' id='coverage'>";
+    for (id, name) in ctx.systems {
+        let cov = |a: &str, b: &str| {
+            m.iter().find(|x| &x.system == id && x.metric == "coverage" && x.from == a && x.to == b).map(|x| x.value)
         };
-        let _ = write!(
-            s,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{ci}</td><td>{}</td><td>{}</td></tr>",
-            esc(&m.system),
-            esc(&m.metric),
-            esc(&m.from),
-            esc(&m.to),
-            m.value,
-            m.n,
-            esc(&m.unit)
-        );
+        *s += &charts::heat(&format!("coverage within {} s — {name}", ctx.coverage_seconds), p.labels, cov);
     }
-    s += "</table><p>Per-pair values are in metrics.parquet.</p><h2>Provenance</h2><table>";
-    for (k, v) in &p.provenance {
-        let _ = write!(s, "<tr><td>{}</td><td>{}</td></tr>", esc(k), esc(v));
+    let _ = write!(
+        s,
+        "</div><h3>How abrupt are the transitions?</h3><p>Mean over answered requests of the per-frame peak vertex \
+         speed, aligned at the first frame of the target label.</p><div id='velocity'>{}</div>",
+        charts::speed(&p.speed)
+    );
+    let _ = write!(s, "<h3>Did the GPLVM fits converge?</h3><div id='traces'>{}</div>", charts::fit_traces(&p.traces));
+    let _ = write!(
+        s,
+        "<h3>Latent spaces and the bridges between them (the paper's Fig. 2)</h3><p>Each label's training latents, \
+         one polyline per segment; a line for the best bridge of every ordered pair from x1 (●, in A's space) to \
+         x2 (○, in B's).</p><div id='latents'>{}</div>",
+        charts::latents_with_bridges(&p.latents, &p.latent_bridges)
+    );
+    let cam = Camera::fit(&[p.camera_mesh], 280, 280);
+    *s += "<h3>Bridge poses (Fig. 3)</h3><p>The closest bridges: M1's pose at x1 and M2's at x2, rendered through the rig.</p><div class='row' id='bridges'>";
+    for (caption, a, b) in &p.bridges {
+        *s += "<div class='row'>";
+        *s += &image(&cam, a, p.triangles, [0.85, 0.6, 0.45], 280, &format!("{caption} — from"));
+        *s += &image(&cam, b, p.triangles, [0.45, 0.6, 0.85], 280, &format!("{caption} — to"));
+        *s += "</div>";
     }
-    s + "</table></body></html>\n"
+    *s += "</div>";
+    if let Some((caption, frames)) = &p.filmstrip {
+        let cam = Camera::fit(&[p.camera_mesh], 120, 120);
+        let _ =
+            write!(s, "<h3>Synthesized sequence (Fig. 4)</h3><p>{}</p><div class='row' id='filmstrip'>", esc(caption));
+        for (label, mesh) in frames {
+            *s += &image(&cam, mesh, p.triangles, [0.8, 0.7, 0.55], 120, label);
+        }
+        *s += "</div>";
+    }
+    *s += "</section>";
+}
+
+/// The Markdown report's definitions, as HTML (bullets, `code`, **bold**).
+fn definitions(s: &mut String, md: &str) {
+    *s += "<section id='definitions'><h2>Definitions</h2>";
+    let body = md.split("## Definitions").nth(1).unwrap_or("");
+    let mut in_list = false;
+    for para in body.split('\n').map(str::trim).filter(|l| !l.is_empty()) {
+        let (item, line) = match para.strip_prefix("- ") {
+            Some(rest) => (true, rest),
+            None => (false, para),
+        };
+        if item != in_list {
+            *s += if item { "<ul>" } else { "</ul>" };
+            in_list = item;
+        }
+        let html = inline_md(&esc(line));
+        let _ = write!(s, "{}", if item { format!("<li>{html}</li>") } else { format!("<p>{html}</p>") });
+    }
+    if in_list {
+        *s += "</ul>";
+    }
+    *s += "</section>";
+}
+
+/// `code` and **bold** of one escaped Markdown line.
+fn inline_md(line: &str) -> String {
+    let mut out = String::new();
+    for (i, part) in line.split('`').enumerate() {
+        if i % 2 == 1 {
+            let _ = write!(out, "<code>{part}</code>");
+        } else {
+            for (j, p) in part.split("**").enumerate() {
+                let _ = write!(out, "{}", if j % 2 == 1 { format!("<b>{p}</b>") } else { p.to_string() });
+            }
+        }
+    }
+    out
 }

@@ -10,9 +10,14 @@
 //! [`systems::KNOWN`] and its two inputs; a new metric one more measure and its row.
 
 pub mod aggregate;
+#[cfg(test)]
+mod browser;
+mod charts;
+mod encode;
 mod figures;
 mod html;
 pub mod measure;
+mod player;
 mod render;
 pub mod report;
 pub mod systems;
@@ -115,6 +120,10 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
     pub gplvm_fits: PathBuf,
+    /// Input (optional): the GPLVM optimisation traces (the fit-trace figure).
+    #[arg(long, value_name = "FILE")]
+    #[serde(skip)]
+    pub gplvm_trace: Option<PathBuf>,
     /// Input: the PCA errors (the scaling ablation).
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
@@ -217,6 +226,9 @@ impl Args {
         .into_iter()
         .map(|(r, p)| (r.to_string(), p.as_path()))
         .collect();
+        if let Some(t) = &self.gplvm_trace {
+            v.push(("gplvm_trace".into(), t.as_path()));
+        }
         for (id, a, c, r) in self.systems() {
             let role = id.replace('-', "_");
             v.push((format!("{role}_answers"), a));
@@ -325,8 +337,22 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         systems.iter().zip(&measured).map(|(s, per)| (s.shown.clone(), offsets(), mean_speed(per))).collect();
     let camera_mesh = reprise_stagekit::rig::meshes(&rig, &[labeled.frames.row(0).to_vec()])?;
     let links = bridges::read(&args.bridges)?;
-    let page = figures::figures(args, &rig, &links, &labels, &shown, &camera_mesh, &md, speed, &provenance)?;
-    let html = html::page(&page, &out);
+    let inputs = figures::Inputs {
+        args,
+        rig: &rig,
+        training: &training,
+        labeled: &labeled,
+        requests: &reqs,
+        systems: &systems,
+        measured: &measured,
+        links: &links,
+        labels: &labels,
+        camera_mesh: &camera_mesh,
+        markdown: &md,
+        speed,
+    };
+    let page = figures::figures(inputs, &provenance)?;
+    let html = html::page(&page, &out, &ctx);
     write_metrics(&args.metrics, &out, &provenance)?;
     for (path, text) in [(&args.report, md.as_str()), (&args.html, html.as_str())] {
         reprise_artifact::table::write_atomic(path, |f| {

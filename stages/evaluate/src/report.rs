@@ -54,11 +54,13 @@ pub const OVERALL: [&str; 9] = [
     "variety",
 ];
 
-fn find<'a>(m: &'a [Metric], system: &str, metric: &str, from: &str, to: &str) -> Option<&'a Metric> {
+/// The row of `system`'s `metric` over `from` → `to`.
+pub fn find<'a>(m: &'a [Metric], system: &str, metric: &str, from: &str, to: &str) -> Option<&'a Metric> {
     m.iter().find(|x| x.system == system && x.metric == metric && x.from == from && x.to == to)
 }
 
-fn cell(m: Option<&Metric>) -> String {
+/// `value [ci_low, ci_high]` to 3 decimals (`–` where not measured).
+pub fn cell(m: Option<&Metric>) -> String {
     match m {
         Some(m) if m.n == 0 => "–".into(),
         Some(m) => match (m.ci_low, m.ci_high) {

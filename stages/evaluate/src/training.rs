@@ -78,33 +78,48 @@ impl Reference {
     /// visiting the set in order of the distance in the orthonormal search basis — a lower
     /// bound of the full distance — and stopping once the bound exceeds the k-th best.
     pub fn nearest(&self, z: &[f64], y: &[f64], m: &[f64]) -> Nearest {
-        let (c, dim, r) = (z.len(), m.len(), y.len());
-        let near = if r == 0 {
-            nearest_k(z, &self.z, c, MESH_CANDIDATES)
-        } else {
-            let mut bound = nearest_k(y, &self.reduced, r, usize::MAX);
-            let mut best: Vec<(f64, usize)> = Vec::with_capacity(MESH_CANDIDATES + 1);
-            for (lb, i) in bound.drain(..) {
-                if best.len() == MESH_CANDIDATES && lb > best[MESH_CANDIDATES - 1].0 {
-                    break;
-                }
-                let d = self.z[i * c..(i + 1) * c].iter().zip(z).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
-                let at = best.partition_point(|&(e, j)| (e, j) < (d, i));
-                best.insert(at, (d, i));
-                best.truncate(MESH_CANDIDATES);
-            }
-            best
-        };
+        let near = self.candidates(z, y);
         let scaled = near.first().map_or(f64::INFINITY, |n| n.0);
-        let mesh = near
-            .iter()
-            .map(|&(_, i)| {
-                let r = &self.mesh[i * dim..(i + 1) * dim];
-                let sq: f64 = r.iter().zip(m).map(|(a, b)| (f64::from(*a) - b).powi(2)).sum();
-                (sq / (dim / 3).max(1) as f64).sqrt()
-            })
-            .fold(f64::INFINITY, f64::min);
+        let mesh = near.iter().map(|&(_, i)| self.mesh_distance(i, m)).fold(f64::INFINITY, f64::min);
         Nearest { scaled, mesh }
+    }
+
+    /// The mesh-nearest of the [`MESH_CANDIDATES`] scaled-space nearest rows (the pose the
+    /// mesh plausibility of [`Reference::nearest`] measures against): (row, RMS vertex
+    /// distance in mesh units); `None` for an empty set.
+    pub fn nearest_row(&self, z: &[f64], y: &[f64], m: &[f64]) -> Option<(usize, f64)> {
+        self.candidates(z, y).iter().map(|&(_, i)| (i, self.mesh_distance(i, m))).min_by(|a, b| a.1.total_cmp(&b.1))
+    }
+
+    /// The [`MESH_CANDIDATES`] rows nearest to `z` in scaled space, (distance, row),
+    /// nearest first. Exact: rows are visited in order of the distance in the orthonormal
+    /// search basis (`y`: `z`'s coordinates there) — a lower bound of the full distance —
+    /// until the bound exceeds the k-th best.
+    fn candidates(&self, z: &[f64], y: &[f64]) -> Vec<(f64, usize)> {
+        let (c, r) = (z.len(), y.len());
+        if r == 0 {
+            return nearest_k(z, &self.z, c, MESH_CANDIDATES);
+        }
+        let mut bound = nearest_k(y, &self.reduced, r, usize::MAX);
+        let mut best: Vec<(f64, usize)> = Vec::with_capacity(MESH_CANDIDATES + 1);
+        for (lb, i) in bound.drain(..) {
+            if best.len() == MESH_CANDIDATES && lb > best[MESH_CANDIDATES - 1].0 {
+                break;
+            }
+            let d = self.z[i * c..(i + 1) * c].iter().zip(z).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+            let at = best.partition_point(|&(e, j)| (e, j) < (d, i));
+            best.insert(at, (d, i));
+            best.truncate(MESH_CANDIDATES);
+        }
+        best
+    }
+
+    /// RMS vertex distance (mesh units) between row `i`'s mesh and `m`.
+    fn mesh_distance(&self, i: usize, m: &[f64]) -> f64 {
+        let dim = m.len();
+        let r = &self.mesh[i * dim..(i + 1) * dim];
+        let sq: f64 = r.iter().zip(m).map(|(a, b)| (f64::from(*a) - b).powi(2)).sum();
+        (sq / (dim / 3).max(1) as f64).sqrt()
     }
 }
 

@@ -1,0 +1,342 @@
+//! The page's charts as inline SVG strings: latent spaces with the bridges between them,
+//! GPLVM fit traces, latency distributions, plausibility by phase, mesh velocity and the
+//! coverage heat maps. Each function draws one chart from values it is given; nothing here
+//! measures or aggregates.
+
+use std::fmt::Write as _;
+
+use crate::html::esc;
+
+/// Series colours, by system (or label) index.
+pub const PALETTE: [&str; 10] =
+    ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
+
+fn svg_open(w: f64, h: f64, title: &str) -> String {
+    format!(
+        "<svg xmlns='http://www.w3.org/2000/svg' width='{w}' height='{h}' viewBox='0 0 {w} {h}' class='fig' role='img'>\
+         <title>{t}</title><rect width='100%' height='100%' fill='white'/><text x='6' y='14' font-size='12'>{t}</text>",
+        t = esc(title)
+    )
+}
+
+/// A linear map of `[lo, hi]` onto `[a, b]` (a degenerate range maps to the middle).
+fn scale(lo: f64, hi: f64, a: f64, b: f64) -> impl Fn(f64) -> f64 {
+    move |v| if hi > lo { a + (v - lo) / (hi - lo) * (b - a) } else { (a + b) / 2.0 }
+}
+
+/// Smallest and largest finite value.
+fn range(v: impl Iterator<Item = f64>) -> (f64, f64) {
+    v.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)))
+}
+
+/// Maps a latent point to its panel's pixel position.
+type Place = Box<dyn Fn([f64; 2]) -> (f64, f64)>;
+
+/// A bar: (mean, CI low, CI high); `None` where not measured.
+pub type Bar = Option<(f64, f64, f64)>;
+
+/// One label's latent space: its training latents (x0, x1), a polyline per segment.
+pub struct LatentPanel {
+    /// Label.
+    pub label: String,
+    /// Per segment, its points.
+    pub segments: Vec<Vec<[f64; 2]>>,
+}
+
+/// All labels' latent spaces in a grid of panels, with the rank-1 bridges drawn between
+/// them: a line from $x_1$ in A's panel to $x_2$ in B's, coloured by A, and the endpoints
+/// marked (● leaves, ○ arrives).
+pub fn latents_with_bridges(panels: &[LatentPanel], bridges: &[(usize, [f64; 2], usize, [f64; 2])]) -> String {
+    let (pw, ph, cols) = (250.0, 210.0, 4usize);
+    let rows = panels.len().div_ceil(cols).max(1);
+    let (w, h) = (pw * cols as f64 + 20.0, ph * rows as f64 + 30.0);
+    let mut s = svg_open(w, h, "Latent spaces (x0 against x1) and the best bridge of every ordered pair");
+    let place: Vec<Place> = panels
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let (ox, oy) = (10.0 + pw * (i % cols) as f64, 24.0 + ph * (i / cols) as f64);
+            // The panel frames its training latents and the bridge ends in its space.
+            let ends = bridges.iter().flat_map(|(a, x1, b, x2)| [(*a, *x1), (*b, *x2)]).filter(|(l, _)| *l == i);
+            let pts: Vec<[f64; 2]> = p.segments.iter().flatten().copied().chain(ends.map(|(_, x)| x)).collect();
+            let (x0, x1) = range(pts.iter().map(|q| q[0]));
+            let (y0, y1) = range(pts.iter().map(|q| q[1]));
+            let (sx, sy) = (scale(x0, x1, ox + 10.0, ox + pw - 20.0), scale(y0, y1, oy + ph - 16.0, oy + 22.0));
+            Box::new(move |q: [f64; 2]| (sx(q[0]), sy(q[1]))) as Place
+        })
+        .collect();
+    for (i, p) in panels.iter().enumerate() {
+        let (ox, oy) = (10.0 + pw * (i % cols) as f64, 24.0 + ph * (i / cols) as f64);
+        let _ = write!(
+            s,
+            "<rect x='{ox}' y='{oy}' width='{}' height='{}' fill='none' stroke='#ccc'/><text x='{}' y='{}' font-size='12' fill='{}'>{}</text>",
+            pw - 8.0,
+            ph - 6.0,
+            ox + 4.0,
+            oy + 14.0,
+            PALETTE[i % 10],
+            esc(&p.label)
+        );
+        for seg in &p.segments {
+            let pts: Vec<String> = seg.iter().map(|q| place[i](*q)).map(|(x, y)| format!("{x:.1},{y:.1}")).collect();
+            let _ = write!(
+                s,
+                "<polyline fill='none' stroke='{}' stroke-width='1' opacity='0.7' points='{}'/>",
+                PALETTE[i % 10],
+                pts.join(" ")
+            );
+        }
+    }
+    for &(a, x1, b, x2) in bridges.iter().filter(|(a, _, b, _)| *a < panels.len() && *b < panels.len()) {
+        let ((ax, ay), (bx, by)) = (place[a](x1), place[b](x2));
+        let c = PALETTE[a % 10];
+        let _ = write!(
+            s,
+            "<line x1='{ax:.1}' y1='{ay:.1}' x2='{bx:.1}' y2='{by:.1}' stroke='{c}' stroke-width='0.8' opacity='0.35'/>\
+             <circle cx='{ax:.1}' cy='{ay:.1}' r='2.5' fill='{c}'/><circle cx='{bx:.1}' cy='{by:.1}' r='2.5' fill='white' stroke='{c}'/>"
+        );
+    }
+    s + "</svg>"
+}
+
+/// Small multiples of the GPLVM objective against iteration, one panel per label (its own
+/// y axis, labelled with the first and last value).
+pub fn fit_traces(traces: &[(String, Vec<(i64, f64)>)]) -> String {
+    let (pw, ph, cols) = (250.0, 150.0, 4usize);
+    let rows = traces.len().div_ceil(cols).max(1);
+    let mut s =
+        svg_open(pw * cols as f64 + 20.0, ph * rows as f64 + 30.0, "GPLVM objective E against iteration, per label");
+    for (i, (label, pts)) in traces.iter().enumerate() {
+        let (ox, oy) = (10.0 + pw * (i % cols) as f64, 24.0 + ph * (i / cols) as f64);
+        let (i0, i1) = range(pts.iter().map(|p| p.0 as f64));
+        let (v0, v1) = range(pts.iter().map(|p| p.1));
+        let (sx, sy) = (scale(i0, i1, ox + 40.0, ox + pw - 14.0), scale(v0, v1, oy + ph - 26.0, oy + 20.0));
+        let line: Vec<String> =
+            pts.iter().filter(|p| p.1.is_finite()).map(|p| format!("{:.1},{:.1}", sx(p.0 as f64), sy(p.1))).collect();
+        let (first, last) = (pts.first().map_or(f64::NAN, |p| p.1), pts.last().map_or(f64::NAN, |p| p.1));
+        let _ = write!(
+            s,
+            "<rect x='{ox}' y='{oy}' width='{}' height='{}' fill='none' stroke='#ccc'/>\
+             <text x='{}' y='{}' font-size='12'>{} — {} iterations</text>\
+             <polyline fill='none' stroke='#1f77b4' stroke-width='1.5' points='{}'/>\
+             <text x='{}' y='{}' font-size='10' fill='#555'>E: {first:.4e} → {last:.4e}</text>\
+             <text x='{}' y='{}' font-size='10' fill='#555'>iteration</text>",
+            pw - 8.0,
+            ph - 6.0,
+            ox + 4.0,
+            oy + 14.0,
+            esc(label),
+            pts.len(),
+            line.join(" "),
+            ox + 40.0,
+            oy + ph - 12.0,
+            ox + pw - 60.0,
+            oy + ph - 12.0
+        );
+    }
+    if traces.is_empty() {
+        let _ = write!(s, "<text x='20' y='50' font-size='12'>no fit trace given (--gplvm-trace)</text>");
+    }
+    s + "</svg>"
+}
+
+/// Latency distributions: one histogram row per system on a shared seconds axis, with the
+/// count of unanswered requests beside it. `series`: (system, latencies in s, unanswered).
+pub fn latency_histograms(series: &[(String, Vec<f64>, usize)]) -> String {
+    let bins = 30;
+    let (rw, rh) = (560.0, 60.0);
+    let (lo, hi) = range(series.iter().flat_map(|s| s.1.iter().copied()));
+    let (lo, hi) = if lo.is_finite() { (0.0_f64.min(lo), hi.max(lo + 1e-9)) } else { (0.0, 1.0) };
+    let width = (hi - lo) / bins as f64;
+    let h = 40.0 + rh * series.len() as f64 + 30.0;
+    let mut s = svg_open(rw + 380.0, h, "Latency per request (s), by system: histograms of answered requests");
+    let sx = scale(lo, hi, 140.0, 140.0 + rw);
+    for (i, (name, v, unanswered)) in series.iter().enumerate() {
+        let mut counts = vec![0usize; bins];
+        for x in v {
+            counts[(((x - lo) / width) as usize).min(bins - 1)] += 1;
+        }
+        let top = counts.iter().copied().max().unwrap_or(0).max(1) as f64;
+        let base = 40.0 + rh * (i + 1) as f64 - 6.0;
+        let _ =
+            write!(s, "<text x='6' y='{}' font-size='12' fill='{}'>{}</text>", base - 20.0, PALETTE[i % 10], esc(name));
+        for (b, c) in counts.iter().enumerate() {
+            let bh = *c as f64 / top * (rh - 14.0);
+            let _ = write!(
+                s,
+                "<rect x='{:.1}' y='{:.1}' width='{:.1}' height='{bh:.1}' fill='{}'><title>{c} requests in [{:.2}, {:.2}) s</title></rect>",
+                sx(lo + b as f64 * width),
+                base - bh,
+                (sx(lo + width) - sx(lo) - 1.0).max(1.0),
+                PALETTE[i % 10],
+                lo + b as f64 * width,
+                lo + (b + 1) as f64 * width
+            );
+        }
+        let median = reprise_metrics::quantile(v, 0.5);
+        let _ = write!(
+            s,
+            "<line x1='140' y1='{base}' x2='{}' y2='{base}' stroke='#999'/><text x='{}' y='{}' font-size='11'>n = {}, median {median:.2} s, unanswered {unanswered}</text>",
+            140.0 + rw,
+            150.0 + rw,
+            base - 20.0,
+            v.len()
+        );
+    }
+    let _ = write!(
+        s,
+        "<text x='140' y='{y}' font-size='11'>{lo:.2} s</text><text x='{}' y='{y}' font-size='11' text-anchor='end'>{hi:.2} s</text>",
+        140.0 + rw,
+        y = h - 10.0
+    );
+    s + "</svg>"
+}
+
+/// Grouped bars with CI whiskers: per group (phase) one bar per system.
+/// `values[group][system]`.
+pub fn grouped_bars(title: &str, groups: &[&str], systems: &[String], values: &[Vec<Bar>]) -> String {
+    let (w, h) = (420.0, 220.0);
+    let mut s = svg_open(w, h, title);
+    let top = values
+        .iter()
+        .flatten()
+        .flatten()
+        .map(|v| v.2.max(v.0))
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max)
+        .max(1e-12);
+    let sy = scale(0.0, top, h - 40.0, 30.0);
+    let gw = (w - 60.0) / groups.len().max(1) as f64;
+    let bw = (gw - 12.0) / systems.len().max(1) as f64;
+    let _ = write!(s, "<line x1='40' y1='{y}' x2='{}' y2='{y}' stroke='#999'/><text x='4' y='34' font-size='10'>{top:.2}</text><text x='4' y='{y}' font-size='10'>0</text>", w - 10.0, y = h - 40.0);
+    for (g, name) in groups.iter().enumerate() {
+        let gx = 44.0 + g as f64 * gw;
+        let _ = write!(
+            s,
+            "<text x='{:.1}' y='{}' font-size='11' text-anchor='middle'>{}</text>",
+            gx + gw / 2.0 - 6.0,
+            h - 24.0,
+            esc(name)
+        );
+        for (k, sys) in systems.iter().enumerate() {
+            let x = gx + k as f64 * bw;
+            match values.get(g).and_then(|v| v.get(k)).copied().flatten() {
+                Some((m, lo, hi)) if m.is_finite() => {
+                    let _ = write!(
+                        s,
+                        "<rect x='{x:.1}' y='{:.1}' width='{:.1}' height='{:.1}' fill='{}'><title>{}: {m:.3} [{lo:.3}, {hi:.3}]</title></rect>\
+                         <line x1='{c:.1}' x2='{c:.1}' y1='{:.1}' y2='{:.1}' stroke='#222'/>",
+                        sy(m),
+                        (bw - 2.0).max(1.0),
+                        (h - 40.0 - sy(m)).max(0.0),
+                        PALETTE[k % 10],
+                        esc(sys),
+                        sy(lo),
+                        sy(hi),
+                        c = x + bw / 2.0 - 1.0
+                    );
+                }
+                _ => {
+                    let _ = write!(s, "<text x='{x:.1}' y='{}' font-size='9'>–</text>", h - 44.0);
+                }
+            }
+        }
+    }
+    for (k, sys) in systems.iter().enumerate() {
+        let _ = write!(
+            s,
+            "<text x='{:.1}' y='{}' font-size='10' fill='{}'>■ {}</text>",
+            44.0 + k as f64 * 95.0,
+            h - 6.0,
+            PALETTE[k % 10],
+            esc(sys)
+        );
+    }
+    s + "</svg>"
+}
+
+/// Mean peak vertex speed around transitions, one line per system:
+/// (system, offsets from the first frame of B, values).
+pub fn speed(series: &[(String, Vec<i64>, Vec<f64>)]) -> String {
+    let (w, h) = (560.0, 240.0);
+    let (_, max) = range(series.iter().flat_map(|s| s.2.iter().copied()));
+    let max = max.max(1e-12);
+    let (omin, omax) = range(series.iter().flat_map(|s| s.1.iter().map(|o| *o as f64)));
+    let sx = scale(omin, omax, 40.0, w - 20.0);
+    let sy = scale(0.0, max, h - 30.0, 20.0);
+    let mut s = svg_open(w, h, &format!("peak vertex speed (max {max:.3} mesh units/s)"));
+    let _ = write!(
+        s,
+        "<line x1='{x}' y1='20' x2='{x}' y2='{}' stroke='#999' stroke-dasharray='4'/>",
+        h - 30.0,
+        x = sx(0.0)
+    );
+    let _ = write!(
+        s,
+        "<text x='{}' y='{}' font-size='11'>frames from the first frame of the target label</text>",
+        w / 2.0 - 120.0,
+        h - 8.0
+    );
+    for (i, (name, off, vals)) in series.iter().enumerate() {
+        let pts: Vec<String> = off
+            .iter()
+            .zip(vals)
+            .filter(|(_, v)| v.is_finite())
+            .map(|(o, v)| format!("{:.1},{:.1}", sx(*o as f64), sy(*v)))
+            .collect();
+        let _ = write!(
+            s,
+            "<polyline fill='none' stroke='{}' stroke-width='2' points='{}'/>",
+            PALETTE[i % 10],
+            pts.join(" ")
+        );
+        let _ = write!(
+            s,
+            "<text x='{}' y='{}' font-size='12' fill='{}'>{}</text>",
+            w - 130.0,
+            30.0 + 16.0 * i as f64,
+            PALETTE[i % 10],
+            esc(name)
+        );
+    }
+    s + "</svg>"
+}
+
+/// A label × label heat map of shares in [0, 1] (`value(a, b)`; `None`: not measured).
+pub fn heat(title: &str, labels: &[String], value: impl Fn(&str, &str) -> Option<f64>) -> String {
+    let (cell, left, top) = (34.0, 90.0, 90.0);
+    let n = labels.len() as f64;
+    let mut s = svg_open(left + n * cell + 10.0, top + n * cell + 10.0, title);
+    for (i, a) in labels.iter().enumerate() {
+        let _ = write!(s, "<text x='4' y='{}' font-size='11'>{}</text>", top + i as f64 * cell + 21.0, esc(a));
+        let _ = write!(
+            s,
+            "<text x='{x}' y='{y}' font-size='11' transform='rotate(-60 {x} {y})'>{}</text>",
+            esc(a),
+            x = left + i as f64 * cell + 14.0,
+            y = top - 6.0
+        );
+        for (j, b) in labels.iter().enumerate() {
+            let (x, y) = (left + j as f64 * cell, top + i as f64 * cell);
+            let (fill, text) = match value(a, b) {
+                Some(v) if a != b => {
+                    let c = v.clamp(0.0, 1.0);
+                    (
+                        format!("rgb({g},{},{g})", 255 - (60.0 * c) as u8, g = (255.0 - 180.0 * c) as u8),
+                        format!("{v:.2}"),
+                    )
+                }
+                _ => ("#eee".into(), String::new()),
+            };
+            let _ = write!(
+                s,
+                "<rect x='{x}' y='{y}' width='{cell}' height='{cell}' fill='{fill}' stroke='white'><title>{} → {}: {text}</title></rect><text x='{}' y='{}' font-size='10'>{text}</text>",
+                esc(a),
+                esc(b),
+                x + 4.0,
+                y + 21.0
+            );
+        }
+    }
+    s + "</svg>"
+}
