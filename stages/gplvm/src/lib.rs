@@ -143,8 +143,9 @@ pub struct Args {
     #[arg(long, default_value_t = 1e-6)]
     pub white_floor: f64,
     /// Noise floor ε: σ_w² ≥ ε · (mean per-dimension variance of the label's PCA
-    /// coordinates Y), a floor tied to the data, not to σ_f² (0: off).
-    #[arg(long, default_value_t = 0.0)]
+    /// coordinates Y), a floor tied to the data, not to σ_f² (0: off). Without it a fit
+    /// can interpolate the noise (σ_w² on its 1e-6 σ_f² floor) and never converge.
+    #[arg(long, default_value_t = 1e-3)]
     pub noise_floor: f64,
     /// Signal prior: standard deviation of log σ_f² under a Gaussian prior centred on the
     /// log of the mean per-dimension variance of Y (0: off). With ℓ fixed it removes the
