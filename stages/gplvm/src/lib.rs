@@ -142,6 +142,16 @@ pub struct Args {
     /// Floor on σ_w² relative to σ_f².
     #[arg(long, default_value_t = 1e-6)]
     pub white_floor: f64,
+    /// Noise floor ε: σ_w² ≥ ε · (mean per-dimension variance of the label's PCA
+    /// coordinates Y), a floor tied to the data, not to σ_f² (0: off). Without it a fit
+    /// can interpolate the noise (σ_w² on its 1e-6 σ_f² floor) and never converge.
+    #[arg(long, default_value_t = 1e-3)]
+    pub noise_floor: f64,
+    /// Signal prior: standard deviation of log σ_f² under a Gaussian prior centred on the
+    /// log of the mean per-dimension variance of Y (0: off). With ℓ fixed it removes the
+    /// ridge X → 0, σ_f² → ∞ along which no fit converged (README, "The GPLVM fit").
+    #[arg(long, default_value_t = 0.25)]
+    pub signal_prior_sd: f64,
     /// Jitter always added to the diagonal of K (GPy: 1e-8).
     #[arg(long, default_value_t = 1e-8)]
     pub jitter: f64,
@@ -214,6 +224,8 @@ impl Args {
                 white_floor: self.white_floor,
                 ..Default::default()
             },
+            noise_floor: self.noise_floor,
+            signal_prior_sd: self.signal_prior_sd,
             dynamics: self.dynamics.then_some(DynamicsParams {
                 rbf_variance: self.dynamics_variance,
                 lengthscale: self.dynamics_lengthscale,
@@ -255,7 +267,7 @@ impl Args {
 
     fn validate(&self) -> StageResult<()> {
         let pos = |v: f64| v.is_finite() && v > 0.0;
-        let checks: [(bool, &str); 12] = [
+        let checks: [(bool, &str); 13] = [
             (self.q >= 1, "--q must be at least 1"),
             (self.max_iters >= 1, "--max-iters must be at least 1"),
             (pos(self.xtol) && pos(self.ftol), "--xtol and --ftol must be positive"),
@@ -269,7 +281,14 @@ impl Args {
                 "--stop netlab is SCG's step test: use it with --optimizer scg",
             ),
             (pos(self.init_white_ratio), "--init-white-ratio must be positive"),
-            (self.white_floor.is_finite() && self.white_floor >= 0.0, "--white-floor must be >= 0"),
+            (
+                self.white_floor.is_finite()
+                    && self.white_floor >= 0.0
+                    && self.noise_floor.is_finite()
+                    && self.noise_floor >= 0.0,
+                "--white-floor and --noise-floor must be >= 0",
+            ),
+            (self.signal_prior_sd.is_finite() && self.signal_prior_sd >= 0.0, "--signal-prior-sd must be >= 0"),
             (self.jitter.is_finite() && self.jitter >= 0.0, "--jitter must be >= 0"),
             (
                 pos(self.dynamics_variance) && pos(self.dynamics_lengthscale) && pos(self.dynamics_white),
@@ -296,25 +315,31 @@ impl Args {
 
 /// One label's training data, gathered from the PCA coordinates.
 #[derive(Debug, Clone)]
-pub(crate) struct LabelData {
-    pub(crate) label: String,
-    pub(crate) d: usize,
+pub struct LabelData {
+    /// The label.
+    pub label: String,
+    /// PCA dimension $d$ of the label.
+    pub d: usize,
     /// Row-major `N × d`.
-    pub(crate) y: Vec<f64>,
+    pub y: Vec<f64>,
     /// Seconds from the segment's first frame.
-    pub(crate) times: Vec<f64>,
-    pub(crate) segments: Vec<i64>,
-    pub(crate) clips: Vec<String>,
-    pub(crate) frames: Vec<i64>,
+    pub times: Vec<f64>,
+    /// Segment id of each row.
+    pub segments: Vec<i64>,
+    /// Clip of each row.
+    pub clips: Vec<String>,
+    /// Frame number (in its clip) of each row.
+    pub frames: Vec<i64>,
 }
 
 impl LabelData {
-    pub(crate) fn n(&self) -> usize {
+    /// Number of frames $N$.
+    pub fn n(&self) -> usize {
         self.frames.len()
     }
 
     /// The rows `keep` only.
-    pub(crate) fn subset(&self, keep: &[usize]) -> Self {
+    pub fn subset(&self, keep: &[usize]) -> Self {
         let d = self.d;
         Self {
             label: self.label.clone(),
@@ -327,9 +352,18 @@ impl LabelData {
         }
     }
 
-    pub(crate) fn fit_data(&self) -> FitData<'_> {
+    /// As the fit's input.
+    pub fn fit_data(&self) -> FitData<'_> {
         FitData { y: &self.y, d: self.d, times: &self.times, segments: &self.segments }
     }
+}
+
+/// Every label's training data from the `pca_coords` and `labeled_frames` artifacts (for
+/// tools that fit single labels outside the stage, e.g. `examples/gplvm_diagnose.rs`).
+pub fn read_labels(coords: &std::path::Path, labeled_frames: &std::path::Path) -> StageResult<Vec<LabelData>> {
+    let pc = pca::read_coords(coords)?;
+    let labeled = LabeledFrames::read(labeled_frames)?;
+    gather(&pc, labeled.frames.fps, coords)
 }
 
 /// Per label, in first-appearance order: the scaled coordinates, with frame times in

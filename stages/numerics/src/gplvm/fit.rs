@@ -23,7 +23,7 @@
 use super::params::JitterUsed;
 use super::{
     subset_rows, ConnectivityParams, ConnectivityPrior, DynamicsParams, DynamicsPrior, EvalInfo, GplvmError, Hyper,
-    Likelihood, LikelihoodConfig, Objective, Predictor,
+    Likelihood, LikelihoodConfig, Objective, Predictor, SignalPrior,
 };
 use crate::lbfgs::{lbfgs, LbfgsOptions};
 use crate::optim::{Convergence, OptInfo, OptIter, OptResult, StopReason};
@@ -150,8 +150,17 @@ pub struct FitConfig {
     /// the objective then has no minimiser and no fit converges. Fixing $\ell$ is a
     /// choice of units for $X$ that loses nothing in the likelihood.
     pub fix_lengthscale: bool,
-    /// Numerical settings of the likelihood (jitter, white floor, parallelism).
+    /// Numerical settings of the likelihood (jitter, white floors, parallelism).
     pub likelihood: LikelihoodConfig,
+    /// The noise floor $\varepsilon$: the white variance is kept at or above
+    /// $\varepsilon\,\bar v$, $\bar v$ the mean per-dimension variance of the centred $Y$
+    /// (it becomes [`LikelihoodConfig::white_min`], unless that is larger). 0 turns it off.
+    /// Noise-free curves otherwise drive $\sigma_w^2/\sigma_f^2$ to its floor and $\sigma_f^2$
+    /// up without end, and no fit converges (README, "The GPLVM fit").
+    pub noise_floor: f64,
+    /// Standard deviation $s$ of $\log\sigma_f^2$ under the [`SignalPrior`] centred on
+    /// $\bar v$ (median $\bar v$); 0 turns the prior off.
+    pub signal_prior_sd: f64,
     /// The dynamics prior's fixed hyperparameters, or `None` to leave it out.
     pub dynamics: Option<DynamicsParams>,
     /// The connectivity prior's parameters, or `None` to leave it out.
@@ -169,6 +178,8 @@ impl Default for FitConfig {
             init_white_ratio: 0.05,
             fix_lengthscale: true,
             likelihood: LikelihoodConfig::default(),
+            noise_floor: 0.0,
+            signal_prior_sd: 0.0,
             dynamics: Some(DynamicsParams::default()),
             connectivity: Some(ConnectivityParams::default()),
             connectivity_path: ConnectivityPath::Exact,
@@ -258,15 +269,53 @@ pub fn initial_latents(y: &[f64], d: usize, q: usize) -> Result<Vec<f64>, GplvmE
 
 /// The starting hyperparameters for centred data `y` (see the module docs).
 pub fn initial_hyper(y: &[f64], d: usize, white_ratio: f64) -> Hyper {
-    let n = (y.len() / d).max(1) as f64;
-    let var = y.iter().map(|v| v * v).sum::<f64>() / (n * d as f64);
+    let var = mean_variance(y, d);
     let var = if var > 0.0 && var.is_finite() { var } else { 1.0 };
     Hyper { rbf_variance: var, lengthscale: 1.0, white_variance: white_ratio * var }
+}
+
+/// The mean per-dimension variance $\bar v = \lVert Y\rVert_F^2/(Nd)$ of centred `y`.
+pub fn mean_variance(y: &[f64], d: usize) -> f64 {
+    let n = (y.len() / d).max(1) as f64;
+    y.iter().map(|v| v * v).sum::<f64>() / (n * d as f64)
+}
+
+/// The likelihood settings of a fit on centred `y`: `config.likelihood` with the absolute
+/// white floor raised to `noise_floor` × [`mean_variance`].
+pub fn likelihood_config(config: &FitConfig, y: &[f64], d: usize) -> LikelihoodConfig {
+    let mut lik = config.likelihood;
+    let floor = config.noise_floor * mean_variance(y, d);
+    if floor.is_finite() {
+        lik.white_min = lik.white_min.max(floor);
+    }
+    lik
 }
 
 /// Fits one GPLVM. `on_evaluation` is called after every objective evaluation with the
 /// value (for progress reporting).
 pub fn fit(data: FitData<'_>, config: &FitConfig, mut on_evaluation: impl FnMut(f64)) -> Result<Fit, GplvmError> {
+    fit_observed(data, config, |e| on_evaluation(e.info.value))
+}
+
+/// One objective evaluation during a fit, as [`fit_observed`] reports it.
+#[derive(Debug, Clone, Copy)]
+pub struct Evaluation<'a> {
+    /// The flat parameter vector evaluated ([`super::Layout`]: $X$ row-major, then the log
+    /// hyperparameters).
+    pub params: &'a [f64],
+    /// The gradient there, as the optimiser saw it (the fixed $\log\ell$ entry zeroed).
+    pub grad: &'a [f64],
+    /// The objective's parts there.
+    pub info: &'a EvalInfo,
+}
+
+/// [`fit`], calling `observe` after every objective evaluation with the point, its
+/// gradient and the objective's parts (for diagnostics: which parameters still move).
+pub fn fit_observed(
+    data: FitData<'_>,
+    config: &FitConfig,
+    mut on_evaluation: impl FnMut(Evaluation<'_>),
+) -> Result<Fit, GplvmError> {
     let (d, q) = (data.d, config.q);
     if d == 0 || data.y.is_empty() || !data.y.len().is_multiple_of(d) {
         return Err(GplvmError::Shape(format!("Y has {} values, not N × d with d = {d}", data.y.len())));
@@ -294,11 +343,15 @@ pub fn fit(data: FitData<'_>, config: &FitConfig, mut on_evaluation: impl FnMut(
     if !(config.init_white_ratio > 0.0 && config.init_white_ratio.is_finite()) {
         return Err(GplvmError::Params(format!("init_white_ratio must be > 0, got {}", config.init_white_ratio)));
     }
+    if !(config.noise_floor >= 0.0 && config.noise_floor.is_finite()) {
+        return Err(GplvmError::Params(format!("noise_floor must be >= 0, got {}", config.noise_floor)));
+    }
     let offset = column_means(data.y, d);
     let y: Vec<f64> = data.y.chunks_exact(d).flat_map(|r| r.iter().zip(&offset).map(|(v, m)| v - m)).collect();
     let x0 = initial_latents(&y, d, q)?;
     let hyper0 = initial_hyper(&y, d, config.init_white_ratio);
-    let likelihood = Likelihood::new(&y, d, q, config.likelihood)?;
+    let lik_config = likelihood_config(config, &y, d);
+    let likelihood = Likelihood::new(&y, d, q, lik_config)?;
     let dynamics = config.dynamics.map(|p| DynamicsPrior::new(data.times, data.segments, q, p)).transpose()?;
     let dynamics_jitter = dynamics.as_ref().map(DynamicsPrior::jitter_used);
     let connectivity = config.connectivity.map(|p| ConnectivityPrior::new(n, q, p)).transpose()?;
@@ -308,7 +361,12 @@ pub fn fit(data: FitData<'_>, config: &FitConfig, mut on_evaluation: impl FnMut(
         }
         _ => None,
     };
-    let mut objective = Objective::new(likelihood, dynamics, connectivity)?;
+    if !(config.signal_prior_sd >= 0.0 && config.signal_prior_sd.is_finite()) {
+        return Err(GplvmError::Params(format!("signal_prior_sd must be >= 0, got {}", config.signal_prior_sd)));
+    }
+    let signal = (config.signal_prior_sd > 0.0)
+        .then_some(SignalPrior { median: hyper0.rbf_variance, log_sd: config.signal_prior_sd });
+    let mut objective = Objective::new(likelihood, dynamics, connectivity)?.with_signal_prior(signal)?;
     let layout = objective.layout();
     let p0 = layout.pack(&x0, &hyper0);
     let mut grad = vec![0.0; p0.len()];
@@ -335,7 +393,7 @@ pub fn fit(data: FitData<'_>, config: &FitConfig, mut on_evaluation: impl FnMut(
     let last = objective.try_evaluate(&result.0.x, &mut grad)?;
     let hyper = layout.hyper(&result.0.x);
     let x = layout.x(&result.0.x).to_vec();
-    let predictor = Predictor::new(&x, &y, d, hyper, &config.likelihood)?;
+    let predictor = Predictor::new(&x, &y, d, hyper, &lik_config)?;
     let (result, stage_iterations) = result;
     Ok(Fit {
         x,
@@ -358,7 +416,7 @@ fn optimise(
     optimizer: &Optimizer,
     start: &[f64],
     fixed: Option<usize>,
-    on_evaluation: &mut impl FnMut(f64),
+    on_evaluation: &mut impl FnMut(Evaluation<'_>),
 ) -> Result<OptResult, GplvmError> {
     let mut evaluations = 0;
     let mut failure = None;
@@ -372,7 +430,7 @@ fn optimise(
             if v.is_nan() && failure.is_none() {
                 failure = objective.last().error.clone();
             }
-            on_evaluation(v);
+            on_evaluation(Evaluation { params: p, grad: g, info: objective.last() });
             v
         },
         start,
@@ -525,6 +583,50 @@ mod tests {
             g.last.value,
             f.last.value
         );
+    }
+
+    /// The signal prior and the noise floor make the MAP well posed on smooth curves with
+    /// a little noise: with ℓ fixed and the dynamics prior, the exact connectivity path
+    /// and the stage's defaults s = 0.25, ε = 10⁻³, L-BFGS converges (measured: with the
+    /// signal prior alone the white variance falls to its 10⁻⁶σ_f² floor, X interpolates
+    /// the noise, and 5000 iterations are not enough) by the rule before the cap, σ_f² stays within a
+    /// factor 20 of the data's mean variance v̄, E_S is part of the objective, and bad
+    /// settings are errors.
+    #[test]
+    fn signal_prior_fit_converges_with_bounded_signal_variance() {
+        let (n, d) = (60, 5);
+        let (y, times, segs) = data(n, d);
+        let config = FitConfig {
+            connectivity: Some(ConnectivityParams { weight: 1e-3, ..Default::default() }),
+            signal_prior_sd: 0.25,
+            noise_floor: 1e-3,
+            optimizer: Optimizer::lbfgs(Convergence::default(), 5000),
+            ..Default::default()
+        };
+        let f = fit(FitData { y: &y, d, times: &times, segments: &segs }, &config, |_| ()).unwrap();
+        eprintln!("{:?} {:?} {:?}", f.info, f.hyper, f.last);
+        assert_eq!((f.info.reason, f.info.converged), (StopReason::Converged, true));
+        let centred: Vec<f64> = y.chunks_exact(d).flat_map(|r| r.iter().zip(&f.offset).map(|(v, m)| v - m)).collect();
+        let v = mean_variance(&centred, d);
+        assert!(f.hyper.rbf_variance < 20.0 * v && f.hyper.rbf_variance > v / 20.0, "{:?} v̄ = {v}", f.hyper);
+        assert!(f.last.signal > 0.0);
+        let parts = f.last.likelihood + f.last.dynamics + f.last.connectivity + f.last.signal;
+        assert!((f.last.value - parts).abs() < 1e-9 * f.last.value.abs().max(1.0));
+        let bad = FitConfig { signal_prior_sd: -1.0, ..config.clone() };
+        assert!(fit(FitData { y: &y, d, times: &times, segments: &segs }, &bad, |_| ()).is_err());
+        let bad = FitConfig { noise_floor: f64::NAN, ..config };
+        assert!(fit(FitData { y: &y, d, times: &times, segments: &segs }, &bad, |_| ()).is_err());
+    }
+
+    /// The noise floor ε becomes the absolute white floor ε·v̄ of the fit's likelihood.
+    #[test]
+    fn noise_floor_is_tied_to_the_data_variance() {
+        let (y, _, _) = data(30, 3);
+        let config = FitConfig { noise_floor: 1e-2, ..Default::default() };
+        let lik = likelihood_config(&config, &y, 3);
+        assert!((lik.white_min - 1e-2 * mean_variance(&y, 3)).abs() < 1e-15);
+        assert_eq!(likelihood_config(&FitConfig::default(), &y, 3).white_min, 0.0);
+        assert!((mean_variance(&[1.0, -1.0, 3.0, -3.0], 2) - 5.0).abs() < 1e-15);
     }
 
     /// A fit that cannot converge within the cap (a connectivity weight 10⁶ times the

@@ -36,15 +36,48 @@ pub struct LikelihoodConfig {
     /// Diagonal jitter policy (default [`Jitter::GPY`]: always $10^{-8}$).
     pub jitter: Jitter,
     /// Floor on the white variance relative to the RBF variance: the kernel uses
-    /// $\max(\sigma_w^2, r\sigma_f^2)$ (method.md §1.6). Default $r = 10^{-6}$; 0 disables.
+    /// $\max(\sigma_w^2, r\sigma_f^2, a)$ (method.md §1.6). Default $r = 10^{-6}$; 0 disables.
     pub white_floor: f64,
+    /// Absolute floor $a$ on the white variance, in the units of $Y^2$ (default 0: off).
+    /// A floor tied to the *data* rather than to $\sigma_f^2$: [`super::fit`] sets it to
+    /// [`super::FitConfig::noise_floor`] × the mean per-dimension variance of $Y$, which
+    /// makes the MAP well posed on noise-free curves (README, "The GPLVM fit").
+    pub white_min: f64,
     /// Parallelism of the dense factorisations and products.
     pub par: Par,
 }
 
 impl Default for LikelihoodConfig {
     fn default() -> Self {
-        Self { jitter: Jitter::GPY, white_floor: 1e-6, par: Par::Seq }
+        Self { jitter: Jitter::GPY, white_floor: 1e-6, white_min: 0.0, par: Par::Seq }
+    }
+}
+
+/// Which floor set the white variance the kernel uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Floor {
+    /// $\sigma_w^2$ itself (above both floors).
+    None,
+    /// $r\sigma_f^2$ (so the used value depends on $\sigma_f^2$).
+    Relative,
+    /// The absolute floor $a$ (a constant).
+    Absolute,
+}
+
+impl LikelihoodConfig {
+    /// The white variance the kernel uses, $\max(\sigma_w^2, r\sigma_f^2, a)$, and which
+    /// term it is (ties go to $\sigma_w^2$, then to the relative floor: one-sided
+    /// derivatives, exact away from the kinks).
+    pub(crate) fn white(&self, hyper: &Hyper) -> (f64, Floor) {
+        let relative = self.white_floor * hyper.rbf_variance;
+        let floor = relative.max(self.white_min);
+        if hyper.white_variance >= floor {
+            (hyper.white_variance, Floor::None)
+        } else if relative >= self.white_min {
+            (relative, Floor::Relative)
+        } else {
+            (self.white_min, Floor::Absolute)
+        }
     }
 }
 
@@ -103,6 +136,9 @@ impl Likelihood {
         if !(config.white_floor >= 0.0 && config.white_floor.is_finite()) {
             return Err(GplvmError::Params(format!("white floor must be >= 0, got {}", config.white_floor)));
         }
+        if !(config.white_min >= 0.0 && config.white_min.is_finite()) {
+            return Err(GplvmError::Params(format!("absolute white floor must be >= 0, got {}", config.white_min)));
+        }
         let n = y.len() / d;
         let par = config.par;
         let scratch = StackReq::any_of(&[
@@ -147,18 +183,14 @@ impl Likelihood {
         &self.config
     }
 
-    /// The white variance the kernel uses at `hyper`, and whether the floor is active.
+    /// The white variance the kernel uses at `hyper`, and whether a floor is active.
     pub fn white_used(&self, hyper: &Hyper) -> (f64, bool) {
-        let floor = self.config.white_floor * hyper.rbf_variance;
-        if hyper.white_variance < floor {
-            (floor, true)
-        } else {
-            (hyper.white_variance, false)
-        }
+        let (white, active) = self.config.white(hyper);
+        (white, active != Floor::None)
     }
 
     /// Builds $K$, factors it and solves for $A$; returns ($E_Y$, jitter, white used).
-    fn factor_and_value(&mut self, x: &[f64], hyper: &Hyper) -> Result<(f64, JitterUsed, f64, bool), GplvmError> {
+    fn factor_and_value(&mut self, x: &[f64], hyper: &Hyper) -> Result<(f64, JitterUsed, f64, Floor), GplvmError> {
         let (n, d, q) = (self.n, self.d, self.q);
         if x.len() != n * q {
             return Err(GplvmError::Shape(format!("x has {} values, expected N·q = {n}·{q}", x.len())));
@@ -167,7 +199,7 @@ impl Likelihood {
             return Err(GplvmError::NonFinite("latent coordinate"));
         }
         hyper.check()?;
-        let (white, clamped) = self.white_used(hyper);
+        let (white, active) = self.config.white(hyper);
         let par = self.config.par;
         columns(x, n, q, &mut self.xc);
         rbf_lower(self.krbf.as_mut(), &self.xc, q, hyper, &mut self.dist);
@@ -191,7 +223,7 @@ impl Likelihood {
         if !value.is_finite() {
             return Err(GplvmError::NonFinite("negative log likelihood"));
         }
-        Ok((value, jitter, white, clamped))
+        Ok((value, jitter, white, active))
     }
 
     /// $E_Y$ alone (one Cholesky and one solve; no inverse), and the jitter used.
@@ -206,7 +238,7 @@ impl Likelihood {
         if grad_x.len() != n * q {
             return Err(GplvmError::Shape(format!("grad_x has {} values, expected {}", grad_x.len(), n * q)));
         }
-        let (value, jitter, white, clamped) = self.factor_and_value(x, hyper)?;
+        let (value, jitter, white, active) = self.factor_and_value(x, hyper)?;
         let par = self.config.par;
         // Lower triangle of G' = K⁻¹ − AAᵀ/D, so that G = (D/2) G'.
         llt::inverse::inverse(self.kinv.as_mut(), self.l.as_ref(), par, self.mem.stack());
@@ -245,10 +277,15 @@ impl Likelihood {
             lengthscale: sum_bd / (ell2 * hyper.lengthscale),
             white_variance: trace_g,
         };
-        if clamped {
-            grad_hyper.rbf_variance += self.config.white_floor * trace_g;
-            grad_hyper.white_variance = 0.0;
+        match active {
+            Floor::None => {}
+            Floor::Relative => {
+                grad_hyper.rbf_variance += self.config.white_floor * trace_g;
+                grad_hyper.white_variance = 0.0;
+            }
+            Floor::Absolute => grad_hyper.white_variance = 0.0,
         }
+        let clamped = active != Floor::None;
         if grad_x.iter().any(|v| !v.is_finite()) || grad_hyper.to_array().iter().any(|v| !v.is_finite()) {
             return Err(GplvmError::NonFinite("likelihood gradient"));
         }
@@ -388,12 +425,36 @@ mod tests {
         assert!(err < 1e-7, "{err:e}");
     }
 
+    /// With the absolute floor active (above the relative one) the kernel uses the
+    /// constant `white_min`: the gradient is zero in σ_w² and has no floor term in σ_f²;
+    /// central differences agree, and above the floor σ_w² is used as given.
+    #[test]
+    fn absolute_white_floor_gradient_is_that_of_the_clamped_kernel() {
+        let (n, d, q) = (15, 4, 2);
+        let (x, y, _) = setup(n, d, q, 3);
+        let config = LikelihoodConfig { white_floor: 1e-3, white_min: 0.05, ..Default::default() };
+        let h = Hyper { rbf_variance: 1.2, lengthscale: 0.7, white_variance: 0.01 };
+        let mut lik = Likelihood::new(&y, d, q, config).unwrap();
+        let mut g = vec![0.0; n * q];
+        let ev = lik.evaluate(&x, &h, &mut g).unwrap();
+        assert!(ev.white_clamped && (ev.white_variance_used - 0.05).abs() < 1e-15);
+        assert_eq!(ev.grad_hyper.white_variance, 0.0);
+        let fd = central_diff(&h.to_log(), 1e-4, |p| lik.value(&x, &Hyper::from_log([p[0], p[1], p[2]])).unwrap().0);
+        let err = max_rel_err(&ev.grad_hyper_log(&h).to_array(), &fd);
+        eprintln!("{}:{} max relative error {err:.1e}", file!(), line!());
+        assert!(err < 1e-7, "{err:e}");
+        let above = Hyper { white_variance: 0.2, ..h };
+        let ev = lik.evaluate(&x, &above, &mut g).unwrap();
+        assert!(!ev.white_clamped && ev.white_variance_used == 0.2);
+        assert!(Likelihood::new(&y, d, q, LikelihoodConfig { white_min: -1.0, ..config }).is_err());
+    }
+
     /// σ_f² → 0 leaves white noise only: E_Y = (ND/2) log(2πσ_w²) + ‖Y‖²/(2σ_w²).
     #[test]
     fn closed_form_without_rbf() {
         let (n, d, q) = (12, 3, 2);
         let (x, y, _) = setup(n, d, q, 4);
-        let config = LikelihoodConfig { jitter: Jitter::NONE, white_floor: 0.0, par: Par::Seq };
+        let config = LikelihoodConfig { jitter: Jitter::NONE, white_floor: 0.0, white_min: 0.0, par: Par::Seq };
         let mut lik = Likelihood::new(&y, d, q, config).unwrap();
         let h = Hyper { rbf_variance: 1e-300, lengthscale: 1.0, white_variance: 0.3 };
         let (v, _) = lik.value(&x, &h).unwrap();

@@ -45,11 +45,11 @@ pub(crate) mod testutil;
 
 pub use connectivity::{subset_rows, ConnectivityEval, ConnectivityParams, ConnectivityPrior};
 pub use dynamics::{DynamicsParams, DynamicsPrior};
-pub use fit::{fit, ConnectivityPath, Fit, FitConfig, FitData, Optimizer};
+pub use fit::{fit, fit_observed, ConnectivityPath, Evaluation, Fit, FitConfig, FitData, Optimizer};
 pub use latent::{best_latent, LatentDensity, ProjectOptions, Projection};
 pub use likelihood::{Likelihood, LikelihoodConfig, LikelihoodEval};
 pub use model::{LatentModel, RigMap};
-pub use objective::{EvalInfo, Objective};
+pub use objective::{EvalInfo, Objective, SignalPrior};
 pub use params::{Hyper, HyperGrad, Jitter, Layout};
 pub use predict::{MeanPredictor, Predictor};
 

@@ -2,7 +2,8 @@
 //! parameter vector of [`Layout`] ($X$ row-major, then $\log\sigma_f^2, \log\ell,
 //! \log\sigma_w^2$), in the shape [`crate::scg::scg`] wants.
 //!
-//! Only the likelihood depends on the hyperparameters; each prior is optional.
+//! Only the likelihood and the optional [`SignalPrior`] depend on the hyperparameters;
+//! each prior is optional.
 
 use super::params::JitterUsed;
 use super::{ConnectivityPrior, DynamicsPrior, GplvmError, Layout, Likelihood};
@@ -18,6 +19,8 @@ pub struct EvalInfo {
     pub dynamics: f64,
     /// $-\psi_C$ (0 without the prior).
     pub connectivity: f64,
+    /// $E_S$, the [`SignalPrior`] term (0 without it).
+    pub signal: f64,
     /// Jitter added to $K$.
     pub jitter: JitterUsed,
     /// The white variance the kernel used (after the floor).
@@ -28,6 +31,39 @@ pub struct EvalInfo {
     pub error: Option<GplvmError>,
 }
 
+/// A Gaussian prior on $u = \log\sigma_f^2$ (a log-normal prior on the RBF variance, as a
+/// density over the optimiser's own coordinate):
+/// $$E_S = \frac{(\log\sigma_f^2 - \log m)^2}{2s^2},\qquad
+/// \frac{\partial E_S}{\partial\log\sigma_f^2} = \frac{\log\sigma_f^2 - \log m}{s^2},$$
+/// with median $m$ (units of $Y^2$) and log standard deviation $s$ (natural log).
+/// [`super::fit`] centres it on the data: $m = \bar v$, the mean per-dimension variance of $Y$.
+/// With $\ell$ fixed it removes the flat-limit ridge of the likelihood ($X \to 0$,
+/// $\sigma_f^2 \to \infty$ at a fixed $\sigma_w^2/\sigma_f^2$) along which no fit converges.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SignalPrior {
+    /// Median $m > 0$ of $\sigma_f^2$.
+    pub median: f64,
+    /// Standard deviation $s > 0$ of $\log\sigma_f^2$.
+    pub log_sd: f64,
+}
+
+impl SignalPrior {
+    /// $E_S$ and $\partial E_S/\partial\log\sigma_f^2$ at $\log\sigma_f^2$ = `log_rbf`.
+    pub fn value_grad(&self, log_rbf: f64) -> (f64, f64) {
+        let z = (log_rbf - self.median.ln()) / self.log_sd;
+        (0.5 * z * z, z / self.log_sd)
+    }
+
+    fn check(&self) -> Result<(), GplvmError> {
+        let pos = |v: f64| v.is_finite() && v > 0.0;
+        if pos(self.median) && pos(self.log_sd) {
+            Ok(())
+        } else {
+            Err(GplvmError::Params(format!("signal prior needs a positive median and log sd, got {self:?}")))
+        }
+    }
+}
+
 /// Likelihood plus optional priors, evaluated together.
 #[derive(Debug)]
 pub struct Objective {
@@ -35,6 +71,7 @@ pub struct Objective {
     likelihood: Likelihood,
     dynamics: Option<DynamicsPrior>,
     connectivity: Option<ConnectivityPrior>,
+    signal: Option<SignalPrior>,
     last: EvalInfo,
 }
 
@@ -50,7 +87,14 @@ impl Objective {
             return Err(GplvmError::Shape(format!("every prior must cover the likelihood's N = {n} points")));
         }
         let layout = Layout { n, q: likelihood.q() };
-        Ok(Self { layout, likelihood, dynamics, connectivity, last: EvalInfo::default() })
+        Ok(Self { layout, likelihood, dynamics, connectivity, signal: None, last: EvalInfo::default() })
+    }
+
+    /// The same objective with the [`SignalPrior`] `prior` on $\sigma_f^2$ (or none).
+    pub fn with_signal_prior(mut self, prior: Option<SignalPrior>) -> Result<Self, GplvmError> {
+        prior.as_ref().map(SignalPrior::check).transpose()?;
+        self.signal = prior;
+        Ok(self)
     }
 
     /// The parameter layout.
@@ -113,11 +157,20 @@ impl Objective {
             Some(c) => c.value_grad_add(x, gx)?.value,
             None => 0.0,
         };
+        let signal = match self.signal {
+            Some(prior) => {
+                let (v, g) = prior.value_grad(params[o]);
+                gh[0] += g;
+                v
+            }
+            None => 0.0,
+        };
         Ok(EvalInfo {
-            value: lik.value + dynamics + connectivity,
+            value: lik.value + dynamics + connectivity + signal,
             likelihood: lik.value,
             dynamics,
             connectivity,
+            signal,
             jitter: lik.jitter,
             white_variance_used: lik.white_variance_used,
             white_clamped: lik.white_clamped,
@@ -163,12 +216,13 @@ mod tests {
         } else {
             (None, None)
         };
-        let obj = Objective::new(lik, dyn_prior, conn).unwrap();
+        let signal = priors.then_some(SignalPrior { median: 0.4, log_sd: 0.7 });
+        let obj = Objective::new(lik, dyn_prior, conn).unwrap().with_signal_prior(signal).unwrap();
         let p = obj.layout().pack(&x, &Hyper { rbf_variance: 0.9, lengthscale: 1.1, white_variance: 0.02 });
         (obj, p)
     }
 
-    /// The full gradient (latent block and log hyperparameters, with both priors) equals
+    /// The full gradient (latent block and log hyperparameters, with all three priors) equals
     /// central differences of the value, and the value is the sum of its parts.
     #[test]
     fn gradient_matches_finite_differences() {
@@ -178,8 +232,8 @@ mod tests {
             let v = obj.evaluate(&p, &mut g);
             let info = obj.last().clone();
             assert!(info.error.is_none());
-            assert!((v - (info.likelihood + info.dynamics + info.connectivity)).abs() < 1e-12 * v.abs());
-            assert_eq!(priors, info.dynamics != 0.0 && info.connectivity != 0.0);
+            assert!((v - (info.likelihood + info.dynamics + info.connectivity + info.signal)).abs() < 1e-12 * v.abs());
+            assert_eq!(priors, info.dynamics != 0.0 && info.connectivity != 0.0 && info.signal != 0.0);
             let mut scratch = vec![0.0; p.len()];
             let fd = central_diff(&p, 1e-4, |pp| obj.evaluate(pp, &mut scratch));
             let err = max_rel_err(&g, &fd);
@@ -208,5 +262,25 @@ mod tests {
         assert_eq!(obj.evaluate(&p, &mut g), f64::INFINITY);
         assert!(g.iter().all(|v| *v == 0.0));
         assert!(obj.last().error.is_some());
+    }
+}
+
+#[cfg(test)]
+mod signal_tests {
+    use super::SignalPrior;
+
+    /// Known answers: zero at the median; one log sd away it is ½ with slope 1/s; the
+    /// slope matches central differences.
+    #[test]
+    fn signal_prior_known_values() {
+        let p = SignalPrior { median: 2.0, log_sd: 0.5 };
+        assert_eq!(p.value_grad(2f64.ln()), (0.0, 0.0));
+        let (v, g) = p.value_grad(2f64.ln() + 0.5);
+        assert!((v - 0.5).abs() < 1e-15 && (g - 2.0).abs() < 1e-14, "{v} {g}");
+        let u = 1.3;
+        let h = 1e-5;
+        let fd = (p.value_grad(u + h).0 - p.value_grad(u - h).0) / (2.0 * h);
+        assert!((fd - p.value_grad(u).1).abs() < 1e-9);
+        assert!(SignalPrior { median: 0.0, log_sd: 1.0 }.check().is_err());
     }
 }

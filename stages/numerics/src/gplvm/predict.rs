@@ -177,7 +177,7 @@ impl Predictor {
             return Err(GplvmError::Shape(format!("x has {} values, not N × q with N = {n}", x.len())));
         }
         let q = x.len() / n;
-        let white = hyper.white_variance.max(config.white_floor * hyper.rbf_variance);
+        let white = config.white(&hyper).0;
         let (chol, jitter) = factor_k(x, n, q, &hyper, white, config)?;
         let mut a = Mat::<f64>::from_fn(n, d, |i, j| y[i * d + j]);
         triangular_solve::solve_lower_triangular_in_place(chol.as_ref(), a.as_mut(), config.par);
@@ -196,7 +196,7 @@ impl Predictor {
     pub fn from_mean(mean: MeanPredictor, config: &LikelihoodConfig) -> Result<Self, GplvmError> {
         let (n, q) = (mean.n(), mean.q());
         let hyper = *mean.hyper();
-        let white = hyper.white_variance.max(config.white_floor * hyper.rbf_variance);
+        let white = config.white(&hyper).0;
         let (chol, jitter) = factor_k(&mean.x, n, q, &hyper, white, config)?;
         Ok(Self { mean, chol, jitter, white_used: white })
     }
