@@ -231,15 +231,16 @@ impl Graph {
                 continue;
             }
             if v != start && target(v) {
-                let (mut edges, mut total) = (Vec::new(), 0u32);
+                let (mut edges, mut total) = (Vec::new(), 0u64);
                 let mut at = v;
                 while let Some((prev, e, cost)) = via[at] {
                     edges.push(e);
-                    total = total.saturating_add(cost);
+                    total += u64::from(cost);
                     at = prev;
                 }
                 edges.reverse();
-                return Some((total, edges));
+                // A path of u32::MAX frames or more counts as unreachable.
+                return u32::try_from(total).ok().filter(|&t| t < u32::MAX).map(|t| (t, edges));
             }
             for &(w, cost, e) in &self.adj[v] {
                 let next = c.saturating_add(weight(cost, e));
