@@ -24,7 +24,7 @@ fn built() -> &'static Project {
 const A: &str = "artifacts/dragon-face";
 
 /// motion-graph's flags for the built artifacts, outputs under `out/<name>/`, then `extra`.
-fn motion_graph(name: &str, labeled: &str, extra: &[&str]) -> Vec<String> {
+pub(crate) fn motion_graph(name: &str, labeled: &str, extra: &[&str]) -> Vec<String> {
     let mut v: Vec<String> = [
         "--labeled-frames",
         labeled,

@@ -151,6 +151,7 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     assert!(html.matches("data:image/png;base64,").count() >= 12, "rendered bridge poses and filmstrip frames");
     assert!(!html.contains("src='http") && !html.contains("src=\"http") && !html.contains("<link"), "self-contained");
     assert!(html.contains("id='player-data'") && html.contains("id='player-mesh'"), "the player's data is inline");
+    transitions_refuses_a_graph_that_does_not_belong(&p);
     // The same seeds give the same curves.
     let before = std::fs::read(a("curves")).unwrap();
     p.reprise(&["run", "--force", "synthesize"]).ok();
@@ -175,4 +176,44 @@ fn gplvm_bad_input_is_a_clear_error() {
     p.write("pipeline.toml", &toml);
     let err = p.reprise(&["run"]).fails(2);
     assert!(err.contains("--heldout-every"), "{err}");
+}
+
+/// `reprise-transitions` run by hand on the full run's artifacts: a window other than the
+/// motion graph's, and edges of another motion-graph run beside these nodes, are refused
+/// as bad input naming the file — before any request is answered, nothing written.
+fn transitions_refuses_a_graph_that_does_not_belong(p: &Project) {
+    const A: &str = "artifacts/dragon-face";
+    let args = |window: &str, edges: &str| -> Vec<String> {
+        let mut v: Vec<String> = [
+            ("gplvm-models", "gplvm_models"),
+            ("latents", "gplvm_latents"),
+            ("pca-models", "pca_models"),
+            ("scales", "scales"),
+            ("bridges", "bridges"),
+            ("labeled-frames", "labeled_frames"),
+            ("mg-nodes", "mg_nodes"),
+        ]
+        .iter()
+        .flat_map(|(flag, file)| [format!("--{flag}"), format!("{A}/{file}.parquet")])
+        .collect();
+        v.extend(["--mg-edges".into(), edges.into(), "--window".into(), window.into()]);
+        for out in ["requests", "reprise-answers", "reprise-curves", "reprise-reseeded"]
+            .into_iter()
+            .chain(["baseline-answers", "baseline-curves", "baseline-reseeded"])
+        {
+            v.extend([format!("--{out}"), format!("out/t/{out}.parquet")]);
+        }
+        v
+    };
+    let run = |a: Vec<String>| p.stage("reprise-transitions", &a.iter().map(String::as_str).collect::<Vec<_>>());
+    let edges = format!("{A}/mg_edges.parquet");
+
+    let wide = run(args("24", &edges)).fails(reprise_stagekit::exit::INPUT);
+    assert!(wide.contains("mg_nodes.parquet") && wide.contains("built with window 12"), "{wide}");
+
+    let other = crate::bad_inputs::motion_graph("other", &format!("{A}/labeled_frames.parquet"), &["--quantile", "0.2"]);
+    p.stage("reprise-motion-graph", &other.iter().map(String::as_str).collect::<Vec<_>>()).ok();
+    let mixed = run(args("12", "out/other/e.parquet")).fails(reprise_stagekit::exit::INPUT);
+    assert!(mixed.contains("out/other/e.parquet") && mixed.contains("mg_nodes.parquet"), "{mixed}");
+    assert!(!p.path("out/t").exists() || std::fs::read_dir(p.path("out/t")).unwrap().next().is_none(), "nothing written");
 }

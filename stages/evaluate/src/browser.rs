@@ -17,7 +17,6 @@ use crate::aggregate::{exact, metric};
 use crate::charts::LatentPanel;
 use crate::html::{self, Page};
 use crate::player::{Clip, Group, Player};
-use crate::report::Context;
 use reprise_stagekit::StageResult;
 
 /// Sections every page has (element ids).
@@ -214,19 +213,6 @@ fn synthetic(dir: &Path) -> PathBuf {
     };
     let labels = vec!["a".to_string(), "b".to_string()];
     let systems = vec![("reprise".to_string(), "reprise".to_string()), ("baseline".into(), "Motion Graphs".into())];
-    let training = crate::training::tests::training();
-    let ctx = Context {
-        name: "synthetic",
-        labels: &labels,
-        systems: &systems,
-        training: &training,
-        window: 12,
-        coverage_seconds: 2.0,
-        jump_ratio: 2.0,
-        stride: 3,
-        graph_kept: (1, 2),
-        deterministic: vec![],
-    };
     let rows = vec![
         metric("reprise", "latency_s", "all", "all", &[0.3, 0.4, 0.5], "s", 1),
         metric("baseline", "latency_s", "all", "all", &[0.9, 1.0, 1.1], "s", 1),
@@ -253,7 +239,8 @@ fn synthetic(dir: &Path) -> PathBuf {
         provenance: vec![("stage".into(), "test".into())],
     };
     let path = dir.join("index.html");
-    std::fs::write(&path, html::page(&page, &rows, &ctx)).unwrap();
+    let html = crate::report::tests::with_ctx(&systems, &[], |ctx| html::page(&page, &rows, ctx));
+    std::fs::write(&path, html).unwrap();
     path
 }
 

@@ -150,14 +150,7 @@ fn describe(metric: &str) -> &'static str {
 fn values(m: &[Metric], ctx: &report::Context<'_>, metric: &str) -> String {
     ctx.systems
         .iter()
-        .map(|(id, shown)| {
-            let v = if metric == "variety" && ctx.deterministic.contains(id) {
-                "0 (deterministic)".into()
-            } else {
-                cell(find(m, id, metric, "all", "all"))
-            };
-            format!("{} {v}", esc(shown))
-        })
+        .map(|(id, shown)| format!("{} {}", esc(shown), report::overall_cell(m, ctx, id, metric)))
         .collect::<Vec<_>>()
         .join("; ")
 }
@@ -178,7 +171,13 @@ fn conclusions(s: &mut String, m: &[Metric], ctx: &report::Context<'_>) {
             Some(Verdict::Tie(t)) => format!("<b>{}</b> tie exactly", esc(&t.join(", "))),
             None => "Not ranked here (fewer than two systems measured)".into(),
         };
-        let _ = write!(s, "<li><code>{name}</code> ({what}): {verdict} — {}.</li>", values(m, ctx, name));
+        let notes = report::constructed_notes(ctx, name);
+        let unranked = if notes.is_empty() {
+            String::new()
+        } else {
+            format!(" Not ranked where it follows from construction ({})", esc(&notes.join("; ")))
+        };
+        let _ = write!(s, "<li><code>{name}</code> ({what}): {verdict} — {}.{unranked}</li>", values(m, ctx, name));
     }
     *s += "<li>Systems that replay training frames score a raw plausibility of 0 away from their blends; reprise's \
            poses live in each label's PCA subspace, so compare <code>plausibility_floor_*</code> for like with like.</li></ul></section>";
@@ -227,11 +226,7 @@ fn tables(s: &mut String, m: &[Metric], ctx: &report::Context<'_>) {
             };
             let mut r = vec![text(&format!("<code>{name}</code>"))];
             for (id, shown) in ctx.systems {
-                let v = if *name == "variety" && ctx.deterministic.contains(id) {
-                    "0 (deterministic)".into()
-                } else {
-                    cell(find(m, id, name, "all", "all"))
-                };
+                let v = report::overall_cell(m, ctx, id, name);
                 r.push((v, winners.contains(&shown.as_str()) && *name != "variety", true));
             }
             r.push(text(&esc(&if *name == "variety" { "not ranked".into() } else { winners.join(", ") })));

@@ -26,7 +26,7 @@ use serde::Serialize;
 
 use crate::encode::{self, Encoded, MeshSource};
 use crate::measure::Phase;
-use crate::systems::System;
+use crate::systems::{Played, System};
 use crate::training::{RigRef, Training};
 
 /// Label pairs shown in the player.
@@ -217,7 +217,7 @@ pub fn build(inp: &Inputs<'_>) -> StageResult<Player> {
                     inp.window,
                 );
                 let phase = (0..len).map(|t| ranges.iter().position(|g| g.contains(&t)).unwrap_or(1) as u8).collect();
-                let bridges = if s.id == "reprise" { bridges_gone_through(inp, &p.model, &p.controls) } else { vec![] };
+                let bridges = if s.id == "reprise" { bridges_gone_through(inp, p) } else { vec![] };
                 clips.push(Clip {
                     system: s.shown.clone(),
                     offset: poses.len(),
@@ -229,7 +229,7 @@ pub fn build(inp: &Inputs<'_>) -> StageResult<Player> {
                     phase,
                     bridges,
                     command: vec![],
-                    latent: vec![],
+                    latent: p.x.iter().map(|x| round(x)).collect(),
                     nearest: vec![],
                 });
                 poses.extend(p.controls.iter().cloned());
@@ -313,7 +313,6 @@ fn scripts(c: &Curves, label_index: &dyn Fn(&str) -> u16, poses: &mut Vec<Vec<f6
             break;
         }
         total += rows.len();
-        let round = |x: &[f64]| x.iter().map(|v| (v * 1000.0).round() / 1000.0).collect::<Vec<f64>>();
         let clip = Clip {
             system: name.clone(),
             offset: poses.len(),
@@ -358,45 +357,91 @@ fn nearest_frames(
     Ok((out, b))
 }
 
-/// The bridges a reprise answer went through. The curves carry no latent point, so the
-/// bridge at a model switch L1 → L2 (frame t) is inferred: among the bridges L1 → L2, the
-/// one whose M1 pose $g_{L1}(x_1)$ is nearest the last frame of L1 (the engine arrives at
-/// $x_1$ before it switches), with that distance (scaled controls) in the caption.
-fn bridges_gone_through(inp: &Inputs<'_>, model: &[String], controls: &[Vec<f64>]) -> Vec<(usize, usize, String)> {
+/// The bridges a reprise answer went through, one per model switch L1 → L2 (frame t).
+/// Where the curves carry the particle's latent points, the bridge is the one the particle
+/// crossed: among the bridges L1 → L2, the one minimising
+/// $\lVert x_1 - x_{t-1}\rVert + \lVert x_2 - x_t\rVert$ (the engine reaches $x_1$ in L1 and
+/// starts L2's particle at $x_2$), both distances in the caption. Without latent points it
+/// is inferred from poses: the bridge whose M1 pose $g_{L1}(x_1)$ is nearest the last frame
+/// of L1, with that distance (scaled controls).
+fn bridges_gone_through(inp: &Inputs<'_>, p: &Played) -> Vec<(usize, usize, String)> {
+    let (model, controls) = (&p.model, &p.controls);
+    let latent = p.x.len() == model.len() && p.x.iter().all(|x| !x.is_empty());
     let mut out = Vec::new();
     for t in 1..model.len() {
         if model[t] == model[t - 1] {
             continue;
         }
         let (l1, l2) = (&model[t - 1], &model[t]);
-        let Ok(m1) = inp.models.require(l1) else { continue };
-        let z = inp.training.z(&controls[t - 1]);
-        let best = inp
-            .bridges
-            .iter()
-            .filter(|b| &b.from == l1 && &b.to == l2)
-            .map(|b| {
-                let g = inp.training.z(&crate::figures::pose(m1, &b.x1));
-                (g.iter().zip(&z).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt(), b)
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0));
-        let caption = match best {
-            Some((d, b)) => format!(
-                "bridge {l1} → {l2} (rank {}, from point {}): x1 = ({}), x2 = ({}), rig distance {:.3}; inferred — its M1 \
-                 pose is {:.3} ({:.1} median frame steps, scaled controls) from the last {l1} frame",
+        let named = |b: &Bridge| {
+            format!(
+                "bridge {l1} → {l2} (rank {}, from point {}): x1 = ({}), x2 = ({}), rig distance {:.3}",
                 b.rank,
                 b.from_point,
                 fmt_point(&b.x1),
                 fmt_point(&b.x2),
-                b.rig_distance,
-                d,
-                d / inp.training.step
-            ),
-            None => format!("switch {l1} → {l2}: no bridge {l1} → {l2} in the bridges table"),
+                b.rig_distance
+            )
         };
+        let caption = if latent {
+            crossed(inp.bridges, l1, l2, &p.x[t - 1], &p.x[t]).map(|(d1, d2, b)| {
+                format!(
+                    "{}; the particle left {l1} {d1:.3} from x1 and entered {l2} {d2:.3} from x2 (latent units)",
+                    named(b)
+                )
+            })
+        } else {
+            let Ok(m1) = inp.models.require(l1) else { continue };
+            let z = inp.training.z(&controls[t - 1]);
+            inp.bridges
+                .iter()
+                .filter(|b| &b.from == l1 && &b.to == l2)
+                .map(|b| (dist(&inp.training.z(&crate::figures::pose(m1, &b.x1)), &z), b))
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .map(|(d, b)| {
+                    format!(
+                        "{}; inferred — its M1 pose is {d:.3} ({:.1} median frame steps, scaled controls) from the last \
+                         {l1} frame",
+                        named(b),
+                        d / inp.training.step
+                    )
+                })
+        };
+        let caption = caption.unwrap_or_else(|| format!("switch {l1} → {l2}: no bridge {l1} → {l2} in the bridges table"));
         out.push((t, (t + inp.window).min(model.len()) - 1, caption));
     }
     out
+}
+
+/// The bridge L1 → L2 a particle crossed, leaving L1 at `before` and entering L2 at
+/// `after`: the one minimising $\lVert x_1 - \text{before}\rVert + \lVert x_2 -
+/// \text{after}\rVert$, with both distances (latent units).
+fn crossed<'b>(
+    bridges: &'b [Bridge],
+    l1: &str,
+    l2: &str,
+    before: &[f64],
+    after: &[f64],
+) -> Option<(f64, f64, &'b Bridge)> {
+    bridges
+        .iter()
+        .filter(|b| b.from == l1 && b.to == l2)
+        .map(|b| (dist(&b.x1, before), dist(&b.x2, after), b))
+        .min_by(|a, b| (a.0 + a.1).total_cmp(&(b.0 + b.1)))
+}
+
+/// Euclidean distance (infinite between points of different dimension).
+fn dist(a: &[f64], b: &[f64]) -> f64 {
+    if a.len() == b.len() {
+        a.iter().zip(b).map(|(u, v)| (u - v).powi(2)).sum::<f64>().sqrt()
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// A latent point to 3 decimals (what the page shows).
+fn round(x: &[f64]) -> Vec<f64> {
+    x.iter().map(|v| (v * 1000.0).round() / 1000.0).collect()
 }
 
 fn fmt_point(x: &[f64]) -> String {
@@ -457,6 +502,28 @@ mod tests {
 
     /// What is missing: a system not given, a pair without requests, a pair a system
     /// answered none of.
+    /// The crossed bridge is the one whose ends the particle was at, not the nearest by one end.
+    #[test]
+    fn the_crossed_bridge_is_found_from_both_latent_ends() {
+        let bridge = |x1: [f64; 2], x2: [f64; 2], rank: i64| Bridge {
+            from: "a".into(),
+            to: "b".into(),
+            x1: x1.to_vec(),
+            x2: x2.to_vec(),
+            from_point: 0,
+            rig_distance: 0.0,
+            mesh_distance: None,
+            rank,
+        };
+        let bridges = vec![bridge([0.0, 0.0], [5.0, 5.0], 1), bridge([0.3, 0.0], [1.0, 1.0], 2)];
+        // Nearer bridge 1's x1, but far nearer bridge 2's x2: the particle crossed bridge 2.
+        let (d1, d2, b) = crossed(&bridges, "a", "b", &[0.1, 0.0], &[1.0, 1.1]).unwrap();
+        assert_eq!(b.rank, 2);
+        assert!((d1 - 0.2).abs() < 1e-12 && (d2 - 0.1).abs() < 1e-12, "{d1} {d2}");
+        assert!(crossed(&bridges, "b", "a", &[0.0, 0.0], &[1.0, 1.0]).is_none(), "no bridge b → a");
+        assert!(dist(&[0.0], &[0.0, 1.0]).is_infinite());
+    }
+
     #[test]
     fn missing_inputs_are_said() {
         let reqs = vec![request(1, "a", "b")];

@@ -71,6 +71,28 @@ pub fn cell(m: Option<&Metric>) -> String {
     }
 }
 
+/// `system`'s overall `metric` as a cell: measured values with their CI, values that follow
+/// from construction marked so (a deterministic system's variety is 0, shown, not measured).
+pub fn overall_cell(m: &[Metric], ctx: &Context<'_>, system: &str, metric: &str) -> String {
+    if metric == "variety" && ctx.deterministic.iter().any(|d| d == system) {
+        return "0 (deterministic)".into();
+    }
+    let v = cell(find(m, system, metric, "all", "all"));
+    if v != "–" && crate::systems::constructed(system, metric).is_some() {
+        format!("{v} (by construction)")
+    } else {
+        v
+    }
+}
+
+/// The systems whose overall `metric` follows from construction, with why: `shown: why`.
+pub fn constructed_notes(ctx: &Context<'_>, metric: &str) -> Vec<String> {
+    ctx.systems
+        .iter()
+        .filter_map(|(id, shown)| crate::systems::constructed(id, metric).map(|why| format!("{shown}: {why}")))
+        .collect()
+}
+
 /// Who is best on `metric` overall.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Verdict<'a> {
@@ -81,11 +103,14 @@ pub enum Verdict<'a> {
 }
 
 /// The best system on `metric` overall (`None`: not ranked, or fewer than two measured).
+/// Only measured values compete: a value that follows from a system's construction
+/// ([`crate::systems::constructed`]) is left out of the ranking.
 pub fn best<'a>(m: &[Metric], ctx: &'a Context<'_>, metric: &str) -> Option<Verdict<'a>> {
     let lower = lower_is_better(metric)?;
     let mut v: Vec<(&str, &Metric)> = ctx
         .systems
         .iter()
+        .filter(|(id, _)| crate::systems::constructed(id, metric).is_none())
         .filter_map(|(id, shown)| find(m, id, metric, "all", "all").map(|x| (shown.as_str(), x)))
         .filter(|(_, x)| x.value.is_finite() && x.n > 0)
         .collect();
@@ -140,6 +165,12 @@ fn conclusions(s: &mut String, m: &[Metric], ctx: &Context<'_>) {
             if wins.is_empty() { "nothing measured here".to_string() } else { wins.join(", ") }
         );
     }
+    for name in OVERALL {
+        let notes = constructed_notes(ctx, name);
+        if !notes.is_empty() {
+            let _ = writeln!(s, "- `{name}` follows from construction, so is not ranked, for {}.", notes.join("; "));
+        }
+    }
     let _ = writeln!(
         s,
         "- Systems that replay training frames have a raw plausibility floor of 0 away from their blends; reprise's poses \
@@ -153,17 +184,7 @@ fn overall(s: &mut String, m: &[Metric], ctx: &Context<'_>) {
     let names: Vec<&str> = ctx.systems.iter().map(|(_, n)| n.as_str()).collect();
     let _ = writeln!(s, "| metric | {} | best |\n|---|{}---|", names.join(" | "), "---|".repeat(names.len()));
     for name in OVERALL {
-        let cells: Vec<String> = ctx
-            .systems
-            .iter()
-            .map(|(id, _)| {
-                if name == "variety" && ctx.deterministic.contains(id) {
-                    "0 (deterministic)".into()
-                } else {
-                    cell(find(m, id, name, "all", "all"))
-                }
-            })
-            .collect();
+        let cells: Vec<String> = ctx.systems.iter().map(|(id, _)| overall_cell(m, ctx, id, name)).collect();
         let verdict = match best(m, ctx, name) {
             _ if name == "variety" => "not ranked (read beside plausibility)".to_string(),
             Some(Verdict::Best(b, true)) => format!("{b} (CIs overlap)"),
@@ -347,4 +368,96 @@ fn definitions(s: &mut String, ctx: &Context<'_>) {
         ms = t.mesh_step,
         res = crate::aggregate::RESAMPLES,
     );
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::aggregate::metric;
+
+    fn systems() -> Vec<(String, String)> {
+        crate::systems::KNOWN.iter().map(|(id, shown)| (id.to_string(), shown.to_string())).collect()
+    }
+
+    /// `f` given a context over two labels `a`, `b`, the synthetic training reference and
+    /// `systems`, with `deterministic` systems.
+    pub(crate) fn with_ctx<T>(
+        systems: &[(String, String)],
+        deterministic: &[&str],
+        f: impl FnOnce(&Context<'_>) -> T,
+    ) -> T {
+        let labels = vec!["a".to_string(), "b".to_string()];
+        let training = crate::training::tests::training();
+        let ctx = Context {
+            name: "synthetic",
+            labels: &labels,
+            systems,
+            training: &training,
+            window: 12,
+            coverage_seconds: 2.0,
+            jump_ratio: 2.0,
+            stride: 3,
+            graph_kept: (1, 2),
+            deterministic: deterministic.iter().map(|d| d.to_string()).collect(),
+        };
+        f(&ctx)
+    }
+
+    fn latencies(reprise: f64, graph: f64) -> Vec<Metric> {
+        let row = |sys: &str, v: f64| metric(sys, "latency_s", "all", "all", &[v - 0.01, v, v + 0.01], "s", 1);
+        vec![row("reprise", reprise), row("baseline", graph), row("motion-matching", 0.06), row("crossfade", 0.04)]
+    }
+
+    #[test]
+    fn a_latency_set_by_a_schedule_is_shown_but_not_ranked() {
+        let sys = systems();
+        with_ctx(&sys, &["motion-matching", "crossfade"], |ctx| {
+            // The crossfade's one-frame latency is the lowest, but follows from construction.
+            let m = latencies(0.5, 2.0);
+            assert_eq!(best(&m, ctx, "latency_s"), Some(Verdict::Best("reprise", false)));
+            assert_eq!(overall_cell(&m, ctx, "crossfade", "latency_s"), format!("{} (by construction)", cell(m.get(3))));
+            assert_eq!(overall_cell(&m, ctx, "reprise", "latency_s"), cell(m.first()));
+            let md = markdown(&m, ctx);
+            assert!(md.contains("`latency_s` follows from construction"), "{md}");
+            assert!(md.contains("**Crossfade** is best on: nothing measured here."), "{md}");
+        });
+    }
+
+    #[test]
+    fn reprise_loses_latency_when_the_graph_is_faster() {
+        let sys = systems();
+        with_ctx(&sys, &["motion-matching", "crossfade"], |ctx| {
+            let m = latencies(2.0, 0.5);
+            assert_eq!(best(&m, ctx, "latency_s"), Some(Verdict::Best("Motion Graphs", false)));
+            assert!(markdown(&m, ctx).contains("**Motion Graphs** is best on: latency_s."));
+        });
+    }
+
+    #[test]
+    fn fewer_than_two_measured_values_rank_no_one() {
+        let sys = systems();
+        with_ctx(&sys, &["motion-matching", "crossfade"], |ctx| {
+            let m: Vec<Metric> = latencies(0.5, 2.0).into_iter().filter(|x| x.system != "baseline").collect();
+            assert_eq!(best(&m, ctx, "latency_s"), None);
+            assert_eq!(overall_cell(&m, ctx, "baseline", "latency_s"), "–");
+            assert_eq!(overall_cell(&m, ctx, "crossfade", "variety"), "0 (deterministic)");
+        });
+    }
+
+    #[test]
+    fn overlapping_cis_and_exact_ties_are_called_so() {
+        let sys = systems();
+        with_ctx(&sys, &["motion-matching", "crossfade"], |ctx| {
+            let close = vec![
+                metric("reprise", "peak_accel_ratio", "all", "all", &[0.4, 0.5, 0.6, 0.5], "ratio", 1),
+                metric("baseline", "peak_accel_ratio", "all", "all", &[0.45, 0.55, 0.65, 0.55], "ratio", 1),
+            ];
+            assert!(matches!(best(&close, ctx, "peak_accel_ratio"), Some(Verdict::Best("reprise", true))));
+            let tied = vec![
+                metric("reprise", "success", "all", "all", &[1.0, 1.0], "share", 1),
+                metric("baseline", "success", "all", "all", &[1.0, 1.0], "share", 1),
+            ];
+            assert_eq!(best(&tied, ctx, "success"), Some(Verdict::Tie(vec!["reprise", "Motion Graphs"])));
+        });
+    }
 }

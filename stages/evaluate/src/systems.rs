@@ -16,14 +16,35 @@ pub const KNOWN: [(&str, &str); 4] = [
     ("crossfade", "Crossfade"),
 ];
 
+/// Why `system`'s overall `metric` follows from how the system is built rather than from
+/// what it was asked (`None`: it is measured). Such a value is shown, never ranked.
+///
+/// Motion matching searches only the target label's frames, at most every
+/// `search_interval` (0.1 s by default) after the request, and its first search always takes
+/// a target frame; the crossfade starts blending into its nearest target frame on the next
+/// frame. So both answer every request, within any coverage horizon of at least one search
+/// interval, at a latency set by their schedule.
+pub fn constructed(system: &str, metric: &str) -> Option<&'static str> {
+    match (system, metric) {
+        ("motion-matching", "answered" | "coverage") => Some("its first search always takes a target frame"),
+        ("motion-matching", "latency_s") => Some("set by its search schedule"),
+        ("crossfade", "answered" | "coverage") => Some("it always blends into a target frame"),
+        ("crossfade", "latency_s") => Some("one frame, by construction"),
+        _ => None,
+    }
+}
+
 /// One answer's frames: controls (rows in the labeled frames' control order) and, per
-/// frame, the label that produced it (a blended frame counts as the label blended into).
+/// frame, the label that produced it (a blended frame counts as the label blended into)
+/// and, for a system with latent spaces, the latent point.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Played {
     /// Controls per frame.
     pub controls: Vec<Vec<f64>>,
     /// Producing label per frame.
     pub model: Vec<String>,
+    /// Latent point per frame (empty vectors, or no entries: the system has none).
+    pub x: Vec<Vec<f64>>,
 }
 
 /// One system: its answers and the frames it played for each answered request.
@@ -116,6 +137,7 @@ pub fn by_request(c: &Curves) -> BTreeMap<i64, Played> {
         let p = out.entry(id).or_default();
         p.controls.push(c.values[r * n..(r + 1) * n].to_vec());
         p.model.push(c.model[r].clone());
+        p.x.push(c.x[r].clone());
     }
     out
 }

@@ -258,7 +258,7 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
         let rows: Vec<(i64, Answer)> = answers.iter().map(|(r, a)| (r.request, a[s].0.clone())).collect();
         let mut c = Curves { fps, controls: labeled.frames.controls.clone(), ..Default::default() };
         for (r, a) in &answers {
-            c.push_script(&format!("r{}", r.request), a[s].1.iter().map(|(l, p)| (l.as_str(), p.as_slice())));
+            c.push_script(&format!("r{}", r.request), a[s].1.iter().map(|(l, p)| curves::Frame::plain(l, p)));
         }
         transitions::write_answers(answers_path, system, &rows, &provenance)?;
         curves::write(curves_path, &c, &provenance)?;

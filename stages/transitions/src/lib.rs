@@ -105,8 +105,25 @@ pub struct Args {
     pub check: bool,
 }
 
-/// One answer's frames: (label, controls) per frame.
-type Played = Vec<(String, Vec<f64>)>;
+/// One played frame: the label that produced it, its controls, its latent point (reprise's
+/// particle; empty for the baseline) and the script command in progress.
+#[derive(Debug, Clone)]
+struct PlayedFrame {
+    label: String,
+    controls: Vec<f64>,
+    x: Vec<f64>,
+    command: i64,
+}
+
+impl PlayedFrame {
+    /// A baseline frame: no latent point, command 0.
+    fn clip(label: &str, controls: Vec<f64>) -> Self {
+        Self { label: label.to_string(), controls, x: vec![], command: 0 }
+    }
+}
+
+/// One answer's frames.
+type Played = Vec<PlayedFrame>;
 
 /// The baseline's graph and what playing it needs.
 struct Baseline<'a> {
@@ -143,7 +160,7 @@ impl Baseline<'_> {
     fn answer(&self, start: usize, to: &str, seed: u64) -> Result<Played, String> {
         let Baseline { g, alive, edges, labeled, k, hold, slack } = *self;
         let row = |r: usize| labeled.frames.row(r).to_vec();
-        let mut out: Played = vec![(labeled.label[start].clone(), row(start))];
+        let mut out: Played = vec![PlayedFrame::clip(&labeled.label[start], row(start))];
         // A start the pruning dropped plays forward along its clip into the kept component
         // (those frames count toward the latency); one that never gets there has no answer.
         let mut at = start;
@@ -154,7 +171,7 @@ impl Baseline<'_> {
                         .into(),
                 );
             };
-            out.push((labeled.label[w].clone(), row(w)));
+            out.push(PlayedFrame::clip(&labeled.label[w], row(w)));
             at = w;
         }
         let (_, path) = g
@@ -175,20 +192,20 @@ impl Baseline<'_> {
                 for p in first..k {
                     let (a, b) = (row(from + p), row(dest - k + p));
                     let w = blend_weight(p as f64, k);
-                    out.push((
-                        labeled.label[dest].clone(),
+                    out.push(PlayedFrame::clip(
+                        &labeled.label[dest],
                         a.iter().zip(&b).map(|(x, y)| w * x + (1.0 - w) * y).collect(),
                     ));
                 }
             }
-            out.push((labeled.label[dest].clone(), row(dest)));
+            out.push(PlayedFrame::clip(&labeled.label[dest], row(dest)));
             at = dest;
         }
         // Play on in B while its motion continues.
         for _ in 0..hold {
             match g.adj[at].iter().find(|&&(w, _, id)| edges[id].kind == "next" && alive[w]) {
                 Some(&(w, _, _)) => {
-                    out.push((labeled.label[w].clone(), row(w)));
+                    out.push(PlayedFrame::clip(&labeled.label[w], row(w)));
                     at = w;
                 }
                 None => break,
@@ -202,7 +219,7 @@ impl Baseline<'_> {
 /// last frame before the request (the start pose for the baseline, the end of the hold
 /// for reprise), so a hold before the request counts for no one.
 fn latency(p: &Played, to: &str, request: usize) -> Option<i64> {
-    p.iter().position(|(l, _)| l == to).map(|i| i as i64 - request as i64)
+    p.iter().position(|f| f.label == to).map(|i| i as i64 - request as i64)
 }
 
 /// Runs the stage; returns the requests with each system's answers.
@@ -298,7 +315,13 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
                 engine::run(&lib, &Script { seed, ..script.clone() }, &settings)
                     .map(|f| {
                         let asked = f.iter().position(|f| f.command == 1).map_or(0, |i| i.saturating_sub(1));
-                        (asked, f.into_iter().map(|f| (labels[f.model].clone(), f.controls)).collect::<Played>())
+                        let played = f.into_iter().map(|f| PlayedFrame {
+                            label: labels[f.model].clone(),
+                            controls: f.controls,
+                            x: f.x,
+                            command: f.command as i64,
+                        });
+                        (asked, played.collect::<Played>())
                     })
                     .map_err(|e| e.to_string())
             };
@@ -336,7 +359,12 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
             if let Ok(p) = if again { second } else { first } {
                 c.push_script(
                     &format!("r{}", ans.request.request),
-                    p.iter().map(|(label, controls)| (label.as_str(), controls.as_slice())),
+                    p.iter().map(|f| curves::Frame {
+                        model: &f.label,
+                        controls: &f.controls,
+                        x: &f.x,
+                        command: f.command,
+                    }),
                 );
             }
         }
@@ -411,7 +439,7 @@ mod tests {
                 let late = Baseline { alive: &pruned, ..base }.answer(start - 1, "b", 0).unwrap();
                 assert_eq!(late.len(), played.len() + 1, "one frame more, from the frame before");
             }
-            let v: Vec<f64> = played.iter().map(|(_, p)| p[0]).collect();
+            let v: Vec<f64> = played.iter().map(|f| f.controls[0]).collect();
             assert_eq!(v[0], start as f64, "the request's own frame comes first");
             for w in v.windows(2) {
                 // Within A and within B a step is 1; across the blend the mix moves by

@@ -44,25 +44,50 @@ pub struct Curves {
     pub values: Vec<f64>,
 }
 
+/// One played frame, as [`Curves::push_script`] takes it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame<'a> {
+    /// The label whose model (or clip) produced the frame.
+    pub model: &'a str,
+    /// Rig controls, in the table's control order.
+    pub controls: &'a [f64],
+    /// The latent point (empty: the system has none).
+    pub x: &'a [f64],
+    /// The script command (from 0) that produced it.
+    pub command: i64,
+}
+
+impl<'a> Frame<'a> {
+    /// A frame with no latent point, of command 0.
+    pub fn plain(model: &'a str, controls: &'a [f64]) -> Self {
+        Self { model, controls, x: &[], command: 0 }
+    }
+}
+
 impl Curves {
-    /// Appends one script played frame by frame: per frame (producing label, controls),
-    /// frames numbered from 0 at `fps`, command 0, no latent point.
-    pub fn push_script<'a>(&mut self, script: &str, frames: impl IntoIterator<Item = (&'a str, &'a [f64])>) {
-        for (f, (label, controls)) in frames.into_iter().enumerate() {
+    /// Appends one script played frame by frame, frames numbered from 0 at `fps`.
+    pub fn push_script<'a>(&mut self, script: &str, frames: impl IntoIterator<Item = Frame<'a>>) {
+        for (f, frame) in frames.into_iter().enumerate() {
             self.script.push(script.to_string());
             self.frame.push(f as i64);
             self.time.push(f as f64 / self.fps);
-            self.model.push(label.to_string());
-            self.command.push(0);
-            self.x.push(vec![]);
-            self.values.extend_from_slice(controls);
+            self.model.push(frame.model.to_string());
+            self.command.push(frame.command);
+            self.x.push(frame.x.to_vec());
+            self.values.extend_from_slice(frame.controls);
         }
     }
 }
 
-/// Writes curves atomically.
+/// Writes curves atomically. Every row's latent point has the same dimension (0: none).
 pub fn write(path: &Path, c: &Curves, provenance: &Provenance) -> Result<()> {
     let q = c.x.first().map_or(0, Vec::len);
+    if let Some(r) = c.x.iter().position(|x| x.len() != q) {
+        return Err(crate::error::ArtifactError::Invalid {
+            path: path.into(),
+            message: format!("row {r} has a {}-d latent point where row 0 has {q}", c.x[r].len()),
+        });
+    }
     let mut cols = Columns::new()
         .str("script", &c.script)
         .i64("frame", c.frame.clone())
@@ -124,5 +149,19 @@ mod tests {
         let path = dir.path().join("c.parquet");
         write(&path, &c, &Provenance::new("t", "0", serde_json::json!({}))).unwrap();
         assert_eq!(read(&path).unwrap(), c);
+    }
+
+    /// Latent points of different dimensions in one table are refused, nothing written.
+    #[test]
+    fn ragged_latent_points_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut c = Curves { fps: 24.0, controls: vec!["jaw".into()], ..Default::default() };
+        let x = [0.5, 0.25];
+        c.push_script("s", [Frame { model: "a", controls: &[1.0], x: &x, command: 2 }, Frame::plain("a", &[2.0])]);
+        assert_eq!((c.x[0].len(), c.command[0], c.x[1].len()), (2, 2, 0));
+        let path = dir.path().join("c.parquet");
+        let err = write(&path, &c, &Provenance::new("t", "0", serde_json::json!({}))).unwrap_err();
+        assert!(err.to_string().contains("row 1 has a 0-d latent point where row 0 has 2"), "{err}");
+        assert!(!path.exists());
     }
 }

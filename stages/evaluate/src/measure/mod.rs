@@ -141,7 +141,7 @@ mod tests {
         let (t, lf, rig) = (training(), labeled(), rig());
         let rows = |r: std::ops::Range<usize>| r.map(|i| lf.frames.row(i).to_vec()).collect::<Vec<_>>();
         let settings = Settings { k: 3, stride: 1 };
-        let cut = Played { controls: [rows(20..30), rows(30..40)].concat(), model: vec![] };
+        let cut = Played { controls: [rows(20..30), rows(30..40)].concat(), model: vec![], x: vec![] };
         let answer = Answer::reached(4, 6);
         let m = measure(&rig, &t, settings, &request(), &answer, &cut).unwrap().unwrap();
         assert!((m.latency - 6.0 / 24.0).abs() < 1e-12);
@@ -152,7 +152,7 @@ mod tests {
         let (a, b) = (lf.frames.row(29).to_vec(), lf.frames.row(30).to_vec());
         let walk: Vec<Vec<f64>> =
             (0..40).map(|i| a.iter().zip(&b).map(|(x, y)| x + (y - x) * i as f64 / 39.0).collect()).collect();
-        let smooth = Played { controls: [rows(20..30), walk, rows(30..40)].concat(), model: vec![] };
+        let smooth = Played { controls: [rows(20..30), walk, rows(30..40)].concat(), model: vec![], x: vec![] };
         let m = measure(&rig, &t, settings, &request(), &Answer::reached(9, 40), &smooth).unwrap().unwrap();
         assert!(m.jump < 2.0, "a walk does not jump: {}", m.jump);
         let mid = m.plausibility.values(PlausibilityReference::Raw, Space::Scaled, Some(Phase::Reach));
