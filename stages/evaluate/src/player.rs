@@ -229,7 +229,7 @@ pub fn build(inp: &Inputs<'_>) -> StageResult<Player> {
                     phase,
                     bridges,
                     command: vec![],
-                    latent: p.x.iter().map(|x| round(x)).collect(),
+                    latent: if p.x.iter().all(Vec::is_empty) { vec![] } else { p.x.iter().map(|x| round(x)).collect() },
                     nearest: vec![],
                 });
                 poses.extend(p.controls.iter().cloned());

@@ -413,9 +413,13 @@ fn gather(coords: &pca::PcaCoords, fps: f64, path: &std::path::Path) -> StageRes
     Ok(out)
 }
 
-/// Fits one label, reporting evaluations to `bar`.
+/// Fits one label, reporting each evaluation and its objective to `bar`.
 pub(crate) fn fit_label(data: &LabelData, config: &FitConfig, bar: &reprise_stagekit::ProgressBar) -> StageResult<Fit> {
-    let fit = reprise_numerics::gplvm::fit(data.fit_data(), config, |_| bar.inc(1)).map_err(|e| {
+    let report = |objective: f64| {
+        bar.inc(1);
+        bar.set_message(format!("{} objective {objective:.1}", data.label));
+    };
+    let fit = reprise_numerics::gplvm::fit(data.fit_data(), config, report).map_err(|e| {
         StageError::Numerical(format!("label `{}` ({} frames, d = {}): {e}", data.label, data.n(), data.d))
     })?;
     if fit.info.reason == StopReason::NonFiniteStart {
@@ -446,7 +450,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
     let checker = (args.heldout_every >= 2).then(|| heldout::Checker::open(args, &labeled)).transpose()?;
     // Largest first, so that two workers finish together.
     labels.sort_by_key(|l| std::cmp::Reverse(l.n()));
-    let multi = reprise_stagekit::MultiProgress::new();
+    let multi = reprise_stagekit::multi_progress();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
         .build()

@@ -12,9 +12,9 @@ use crate::error::Result;
 use crate::hash::FileHasher;
 use crate::key::cache_key;
 use crate::locate::{locate, BinDirs};
-use crate::lock::{LockEntry, LockFile};
+use crate::lock::{BinRecord, LockEntry, LockFile};
 use crate::params::canonical_json;
-use crate::pipeline::{Pipeline, Stage};
+use crate::pipeline::{Pipeline, Stage, StageIdentity};
 
 /// Why a stage must run.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -27,7 +27,10 @@ pub enum Reason {
     NeverRun,
     /// The binary cannot be found.
     BinaryMissing { bin: String },
-    /// The binary's content differs from the recorded one.
+    /// The binary's code identity differs from the recorded one.
+    CodeChanged { bin: String },
+    /// The binary's content differs from the recorded one (binaries without a code
+    /// identity, or `stage_identity = "binary"`).
     BinaryChanged { bin: String },
     /// A parameter's value differs (values as JSON).
     ParamChanged { name: String, old: String, new: String },
@@ -62,6 +65,7 @@ impl fmt::Display for Reason {
             Self::Upstream { stage } => write!(f, "upstream stage `{stage}` is stale (will rerun)"),
             Self::NeverRun => write!(f, "never run"),
             Self::BinaryMissing { bin } => write!(f, "stage binary `{bin}` not found"),
+            Self::CodeChanged { bin } => write!(f, "the code of stage binary `{bin}` changed"),
             Self::BinaryChanged { bin } => write!(f, "stage binary `{bin}` changed"),
             Self::ParamChanged { name, old, new } => write!(f, "parameter `{name}` changed: {old} -> {new}"),
             Self::ParamAdded { name, value } => write!(f, "parameter `{name}` added: {value}"),
@@ -86,6 +90,16 @@ pub struct ResolvedBin {
     pub path: PathBuf,
     /// blake3 of its content.
     pub blake3: String,
+    /// The code identity it carries, if the stage is keyed on code and it has one.
+    pub code_id: Option<String>,
+}
+
+impl ResolvedBin {
+    /// Its record in the lock.
+    #[must_use]
+    pub fn record(&self) -> BinRecord {
+        BinRecord { path: self.path.display().to_string(), blake3: self.blake3.clone(), code_id: self.code_id.clone() }
+    }
 }
 
 /// The verdict on one stage.
@@ -138,7 +152,7 @@ pub fn assess(ctx: &Inputs<'_>, hasher: &mut FileHasher) -> Result<Vec<Assessmen
                 reasons.push(Reason::Upstream { stage: stages[dep].name.clone() });
             }
         }
-        let bin = resolve_bin(stage, ctx.dirs, hasher)?;
+        let bin = resolve_bin(stage, ctx.dirs, ctx.pipeline.stage_identity, hasher)?;
         // A missing input some stage writes is explained by that stage being stale.
         let explained = if reasons.iter().any(|r| matches!(r, Reason::Upstream { .. })) {
             ctx.dag.produced_inputs(i)
@@ -154,12 +168,24 @@ pub fn assess(ctx: &Inputs<'_>, hasher: &mut FileHasher) -> Result<Vec<Assessmen
         .collect())
 }
 
-/// Finds and hashes a stage's binary; a missing one is reported, not an error.
-pub fn resolve_bin(stage: &Stage, dirs: &BinDirs, hasher: &mut FileHasher) -> Result<Result<ResolvedBin, String>> {
+/// Finds and hashes a stage's binary, and reads its code identity when the stage is keyed
+/// on code; a missing binary is reported, not an error.
+pub fn resolve_bin(
+    stage: &Stage,
+    dirs: &BinDirs,
+    identity: StageIdentity,
+    hasher: &mut FileHasher,
+) -> Result<Result<ResolvedBin, String>> {
     match locate(&stage.bin, dirs) {
         Err(searched) => Ok(Err(searched)),
         Ok(path) => match hasher.hash(&path)? {
-            Some(blake3) => Ok(Ok(ResolvedBin { path, blake3 })),
+            Some(blake3) => {
+                let code_id = match identity {
+                    StageIdentity::Code => hasher.code_id(&path)?,
+                    StageIdentity::Binary => None,
+                };
+                Ok(Ok(ResolvedBin { path, blake3, code_id }))
+            }
             None => Ok(Err(format!("`{}`", path.display()))),
         },
     }
@@ -175,7 +201,7 @@ pub fn current_key(stage: &Stage, bin: &ResolvedBin, inputs: &BTreeMap<String, O
     let hashes: Option<BTreeMap<String, String>> =
         inputs.iter().map(|(name, hash)| hash.clone().map(|h| (name.clone(), h))).collect();
     let outputs = stage.outputs.iter().map(|(name, path)| (name.as_str(), path.rel.as_str()));
-    Some(cache_key(&stage.name, &bin.blake3, &stage.params, &hashes?, outputs))
+    Some(cache_key(&stage.name, &bin.record().identity(), &stage.params, &hashes?, outputs))
 }
 
 /// The reasons that come from the stage itself and its lock entry (not from upstream).
@@ -207,8 +233,12 @@ fn own_reasons(
 
     match bin {
         Err(_) => reasons.push(Reason::BinaryMissing { bin: stage.bin.declared().into() }),
-        Ok(bin) if bin.blake3 != entry.bin.blake3 => {
-            reasons.push(Reason::BinaryChanged { bin: stage.bin.declared().into() })
+        Ok(bin) if bin.record().identity() != entry.bin.identity() => {
+            let bin_name = stage.bin.declared().into();
+            reasons.push(match (&bin.code_id, &entry.bin.code_id) {
+                (Some(_), Some(_)) => Reason::CodeChanged { bin: bin_name },
+                _ => Reason::BinaryChanged { bin: bin_name },
+            })
         }
         Ok(_) => {}
     }
@@ -333,7 +363,7 @@ mod tests {
             let mut hasher = FileHasher::new();
             let mut lock = LockFile::empty("t");
             for stage in &p.stages {
-                let bin = resolve_bin(stage, &self.dirs(), &mut hasher).unwrap().unwrap();
+                let bin = resolve_bin(stage, &self.dirs(), p.stage_identity, &mut hasher).unwrap().unwrap();
                 let inputs = input_hashes(stage, &mut hasher).unwrap();
                 let record = |path: &crate::paths::ArtifactPath, h: &mut FileHasher| FileRecord {
                     path: path.rel.clone(),
@@ -341,7 +371,7 @@ mod tests {
                 };
                 let entry = LockEntry {
                     key: current_key(stage, &bin, &inputs).unwrap(),
-                    bin: FileRecord { path: bin.path.display().to_string(), blake3: bin.blake3.clone() },
+                    bin: bin.record(),
                     params: canonical_json(&stage.params),
                     inputs: stage.inputs.iter().map(|(n, path)| (n.clone(), record(path, &mut hasher))).collect(),
                     outputs: stage.outputs.iter().map(|(n, path)| (n.clone(), record(path, &mut hasher))).collect(),
@@ -440,6 +470,43 @@ mod tests {
         assert_eq!(f.reasons(&p, &d, &lock, &[]), [vec![], vec!["stage binary `use` changed"]]);
         fs::remove_file(f.path("bin/use")).unwrap();
         assert_eq!(f.reasons(&p, &d, &lock, &[]), [vec![], vec!["stage binary `use` not found"]]);
+    }
+
+    /// A rebuild that keeps the code identity keeps the cache; a new identity reruns,
+    /// named as a code change; a binary that loses its identity is compared by bytes; and
+    /// under `stage_identity = "binary"` the bytes decide.
+    #[test]
+    fn a_binary_is_keyed_on_its_code_identity() {
+        let f = Fixture::new();
+        let id = |c: &str| format!("reprise-code-id={};", c.repeat(64));
+        fs::write(f.path("bin/use"), format!("build 1 {}", id("a"))).unwrap();
+        let (p, d) = f.pipeline("");
+        let lock = f.run_all(&p);
+        assert_eq!(lock.stages["use"].bin.code_id.as_deref(), Some("a".repeat(64).as_str()));
+        assert!(lock.stages["make"].bin.code_id.is_none(), "no identity in `make`");
+        fs::write(f.path("bin/use"), format!("build 2, other bytes {}", id("a"))).unwrap();
+        assert_eq!(f.reasons(&p, &d, &lock, &[]), [Vec::<String>::new(), vec![]], "same code: fresh");
+        fs::write(f.path("bin/use"), format!("build 3 {}", id("b"))).unwrap();
+        assert_eq!(f.reasons(&p, &d, &lock, &[]), [vec![], vec!["the code of stage binary `use` changed"]]);
+        fs::write(f.path("bin/use"), "build 4, no identity").unwrap();
+        assert_eq!(f.reasons(&p, &d, &lock, &[]), [vec![], vec!["stage binary `use` changed"]]);
+
+        fs::write(f.path("bin/use"), format!("build 1 {}", id("a"))).unwrap();
+        let text = |mode: &str| {
+            format!(
+                "[pipeline]\nname = \"t\"\nstage_identity = \"{mode}\"\n\
+                 [stage.make]\nbin = \"make\"\ninputs.src = \"src.txt\"\noutputs.mid = \"mid.txt\"\nparams.n = 1\n\
+                 [stage.use]\nbin = \"use\"\ninputs.mid = \"mid.txt\"\noutputs.out = \"out.txt\"\n"
+            )
+        };
+        let strict = Pipeline::parse(&text("binary"), "pipeline.toml", f.dir.path()).unwrap();
+        let sd = Dag::build(&strict).unwrap();
+        let lock = f.run_all(&strict);
+        assert!(lock.stages["use"].bin.code_id.is_none(), "strict: keyed on bytes");
+        fs::write(f.path("bin/use"), format!("build 2, other bytes {}", id("a"))).unwrap();
+        assert_eq!(f.reasons(&strict, &sd, &lock, &[]), [vec![], vec!["stage binary `use` changed"]]);
+        let bad = Pipeline::parse(&text("bytes"), "pipeline.toml", f.dir.path()).unwrap_err().to_string();
+        assert!(bad.contains("stage_identity") || bad.contains("unknown variant"), "{bad}");
     }
 
     #[test]

@@ -169,7 +169,7 @@ mod tests {
             "a".into(),
             crate::lock::LockEntry {
                 key: String::new(),
-                bin: record.clone(),
+                bin: crate::lock::BinRecord { path: "/bin/a".into(), blake3: "x".into(), code_id: None },
                 params: std::collections::BTreeMap::new(),
                 inputs: std::collections::BTreeMap::new(),
                 outputs: std::collections::BTreeMap::from([("o".into(), record)]),

@@ -15,10 +15,20 @@ use crate::error::{Error, Result};
 /// Bytes per read when hashing: few system calls, and wide enough for every SIMD lane.
 const BUFFER: usize = 1 << 20;
 
-/// blake3 of files, memoised by path.
+/// What one read of a file yields.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct Digest {
+    /// Hex blake3 of the content.
+    blake3: String,
+    /// The code identity embedded in it (a stage binary's; see
+    /// [`reprise_stagekit::code_id!`]), if exactly one is.
+    code_id: Option<String>,
+}
+
+/// blake3 of files (and the code identity of stage binaries), memoised by path.
 #[derive(Debug, Default)]
 pub struct FileHasher {
-    memo: HashMap<PathBuf, Option<String>>,
+    memo: HashMap<PathBuf, Option<Digest>>,
 }
 
 impl FileHasher {
@@ -31,6 +41,16 @@ impl FileHasher {
     /// The hex blake3 of the file at `path`, or `None` if it does not exist. A directory
     /// or an unreadable file is an error.
     pub fn hash(&mut self, path: &Path) -> Result<Option<String>> {
+        Ok(self.digest(path)?.map(|d| d.blake3))
+    }
+
+    /// The code identity embedded in the file at `path` (`None`: the file is missing, or
+    /// holds no identity, or several). Read with its hash, in the same pass.
+    pub fn code_id(&mut self, path: &Path) -> Result<Option<String>> {
+        Ok(self.digest(path)?.and_then(|d| d.code_id))
+    }
+
+    fn digest(&mut self, path: &Path) -> Result<Option<Digest>> {
         if let Some(known) = self.memo.get(path) {
             return Ok(known.clone());
         }
@@ -76,7 +96,40 @@ impl FileHasher {
     }
 }
 
-fn hash_file(path: &Path) -> io::Result<Option<String>> {
+/// Finds `reprise-code-id=<64 hex>;` in a stream of chunks, across chunk boundaries.
+#[derive(Debug, Default)]
+struct IdScan {
+    /// The end of the previous chunk, long enough to hold a marker cut by the boundary.
+    tail: Vec<u8>,
+    found: std::collections::BTreeSet<String>,
+}
+
+impl IdScan {
+    const HEX: usize = 64;
+
+    fn feed(&mut self, chunk: &[u8]) {
+        let marker = reprise_stagekit::CODE_ID_MARKER.as_bytes();
+        let whole = marker.len() + Self::HEX + 1;
+        let mut buf = std::mem::take(&mut self.tail);
+        buf.extend_from_slice(chunk);
+        for at in memchr::memmem::find_iter(&buf, marker) {
+            let Some(rest) = buf.get(at + marker.len()..at + whole) else { continue };
+            let (hex, end) = rest.split_at(Self::HEX);
+            if end == b";" && hex.iter().all(u8::is_ascii_hexdigit) {
+                self.found.insert(String::from_utf8_lossy(hex).into_owned());
+            }
+        }
+        let keep = buf.len().saturating_sub(whole - 1);
+        self.tail = buf.split_off(keep);
+    }
+
+    /// The identity, if exactly one was seen.
+    fn finish(self) -> Option<String> {
+        (self.found.len() == 1).then(|| self.found.into_iter().next()).flatten()
+    }
+}
+
+fn hash_file(path: &Path) -> io::Result<Option<Digest>> {
     let meta = match std::fs::metadata(path) {
         Ok(meta) => meta,
         Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
@@ -88,17 +141,19 @@ fn hash_file(path: &Path) -> io::Result<Option<String>> {
     let mut file = File::open(path)?;
     let mut buffer = vec![0; BUFFER];
     let mut hasher = blake3::Hasher::new();
+    let mut scan = IdScan::default();
     loop {
         match file.read(&mut buffer) {
             Ok(0) => break,
             Ok(n) => {
                 hasher.update(&buffer[..n]);
+                scan.feed(&buffer[..n]);
             }
             Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
             Err(e) => return Err(e),
         }
     }
-    Ok(Some(hasher.finalize().to_hex().to_string()))
+    Ok(Some(Digest { blake3: hasher.finalize().to_hex().to_string(), code_id: scan.finish() }))
 }
 
 #[cfg(test)]
@@ -133,6 +188,29 @@ mod tests {
             assert_eq!(prefetched.hash(path).unwrap(), plain.hash(path).unwrap());
         }
         assert_eq!(prefetched.hash(&dir.path().join("missing")).unwrap(), None);
+    }
+
+    /// The identity is found wherever it lies, across a read boundary too; none, a
+    /// malformed one, or two different ones give none.
+    #[test]
+    fn code_identity_is_found_in_the_bytes() {
+        let dir = tempfile::tempdir().unwrap();
+        let id = "ab".repeat(32);
+        let marked = |s: &str| format!("reprise-code-id={s};");
+        let cases: [(Vec<u8>, Option<&str>); 5] = [
+            ([vec![7u8; BUFFER - 20], marked(&id).into_bytes(), vec![0; 100]].concat(), Some(&id)),
+            ([marked(&id), marked(&id), "reprise-code-id=".into()].concat().into_bytes(), Some(&id)),
+            (b"no identity here".to_vec(), None),
+            (marked(&"g".repeat(64)).into_bytes(), None),
+            ([marked(&id), marked(&"cd".repeat(32))].concat().into_bytes(), None),
+        ];
+        for (i, (bytes, want)) in cases.into_iter().enumerate() {
+            let path = dir.path().join(format!("bin{i}"));
+            std::fs::write(&path, &bytes).unwrap();
+            let mut hasher = FileHasher::new();
+            assert_eq!(hasher.code_id(&path).unwrap().as_deref(), want, "case {i}");
+            assert_eq!(hasher.hash(&path).unwrap().unwrap(), blake3::hash(&bytes).to_hex().to_string());
+        }
     }
 
     #[test]

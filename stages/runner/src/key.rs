@@ -1,5 +1,5 @@
 //! The cache key: blake3 of a canonical serialisation of everything that decides a stage's
-//! result — its name, its binary's content, its parameters (keys sorted, values
+//! result — its name, its binary's identity (its code, or its bytes), its parameters (keys sorted, values
 //! type-tagged), each input's content hash and each output's path.
 
 use std::collections::BTreeMap;
@@ -9,14 +9,14 @@ use serde::Serialize;
 use crate::params::{canonical_tagged, Params, Tagged};
 
 /// Bumped whenever the serialisation below changes, so old keys never match new ones.
-const KEY_FORMAT: &str = "reprise-cache-key/1";
+const KEY_FORMAT: &str = "reprise-cache-key/2";
 
 /// What the key hashes. Field order and sorted maps make the JSON canonical.
 #[derive(Serialize)]
 struct KeyMaterial<'a> {
     format: &'static str,
     stage: &'a str,
-    bin_blake3: &'a str,
+    bin_identity: &'a str,
     params: BTreeMap<&'a str, Tagged>,
     inputs: &'a BTreeMap<String, String>,
     outputs: BTreeMap<&'a str, &'a str>,
@@ -24,12 +24,12 @@ struct KeyMaterial<'a> {
 
 /// The hex cache key of a stage.
 ///
-/// `inputs` maps input name to the blake3 of its content; `outputs` gives each output's
+/// `bin_identity` is [`crate::lock::BinRecord::identity`]; `inputs` maps input name to the blake3 of its content; `outputs` gives each output's
 /// name and normalised path.
 #[must_use]
 pub fn cache_key<'a>(
     stage: &str,
-    bin_blake3: &str,
+    bin_identity: &str,
     params: &Params,
     inputs: &BTreeMap<String, String>,
     outputs: impl IntoIterator<Item = (&'a str, &'a str)>,
@@ -37,7 +37,7 @@ pub fn cache_key<'a>(
     let material = KeyMaterial {
         format: KEY_FORMAT,
         stage,
-        bin_blake3,
+        bin_identity,
         params: canonical_tagged(params),
         inputs,
         outputs: outputs.into_iter().collect(),

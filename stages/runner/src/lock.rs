@@ -24,13 +24,38 @@ pub struct FileRecord {
     pub blake3: String,
 }
 
+/// A stage binary: where it was, the blake3 of its bytes, and the code identity it
+/// carried (absent in locks of runners before identities, and for binaries without one).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BinRecord {
+    /// The binary's resolved path.
+    pub path: String,
+    /// Hex blake3 of its bytes.
+    pub blake3: String,
+    /// The identity it was keyed on, when keyed on its code.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub code_id: Option<String>,
+}
+
+impl BinRecord {
+    /// What the cache key holds of the binary: `code:<id>`, or `bytes:<blake3>` without an
+    /// identity.
+    #[must_use]
+    pub fn identity(&self) -> String {
+        match &self.code_id {
+            Some(id) => format!("code:{id}"),
+            None => format!("bytes:{}", self.blake3),
+        }
+    }
+}
+
 /// One stage's last successful run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LockEntry {
     /// The cache key (see `crate::key`).
     pub key: String,
     /// The stage binary.
-    pub bin: FileRecord,
+    pub bin: BinRecord,
     /// Canonical JSON of the parameters (keys sorted).
     pub params: BTreeMap<String, serde_json::Value>,
     /// Each input by name.
@@ -125,7 +150,7 @@ mod tests {
     fn entry(key: &str) -> LockEntry {
         LockEntry {
             key: key.into(),
-            bin: FileRecord { path: "/bin/x".into(), blake3: "ab".into() },
+            bin: BinRecord { path: "/bin/x".into(), blake3: "ab".into(), code_id: Some("ef".into()) },
             params: BTreeMap::from([("z".into(), serde_json::json!(1)), ("a".into(), serde_json::json!(["x"]))]),
             inputs: BTreeMap::new(),
             outputs: BTreeMap::from([("o".into(), FileRecord { path: "out/o".into(), blake3: "cd".into() })]),
@@ -133,6 +158,17 @@ mod tests {
             seconds: 0.5,
             peak_rss_mb: Some(12.5),
         }
+    }
+
+    /// A lock written before code identities (no `code_id`) still reads.
+    #[test]
+    fn a_lock_without_code_identities_reads() {
+        let mut e = serde_json::to_value(entry("k")).unwrap();
+        e["bin"].as_object_mut().unwrap().remove("code_id");
+        let back: LockEntry = serde_json::from_value(e).unwrap();
+        assert_eq!(back.bin.code_id, None);
+        assert_eq!(back.bin.identity(), "bytes:ab");
+        assert_eq!(entry("k").bin.identity(), "code:ef");
     }
 
     #[test]

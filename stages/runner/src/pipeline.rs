@@ -13,7 +13,7 @@ use crate::params::{ParamValue, Params};
 use crate::paths::ArtifactPath;
 
 const TOP_KEYS: &[&str] = &["pipeline", "stage"];
-const HEADER_KEYS: &[&str] = &["name", "artifacts"];
+const HEADER_KEYS: &[&str] = &["name", "artifacts", "stage_identity"];
 const STAGE_KEYS: &[&str] = &["bin", "inputs", "outputs", "after", "params", "allow_overwrite"];
 /// Flags the runner itself passes, or that every clap binary owns.
 const RESERVED: &[&str] = &["check", "help", "version"];
@@ -24,6 +24,20 @@ const RESERVED: &[&str] = &["check", "help", "version"];
 struct HeaderDef {
     name: String,
     artifacts: Option<String>,
+    stage_identity: Option<StageIdentity>,
+}
+
+/// `[pipeline] stage_identity`: what of a stage's binary its cache key holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StageIdentity {
+    /// The code identity compiled into it (the source of every crate it links, the
+    /// locked dependency versions, the compiler; see `reprise_codeid`), so a rebuild of
+    /// unchanged code keeps the cache. A binary without one is keyed on its bytes.
+    #[default]
+    Code,
+    /// Its bytes (strict: any rebuild that changes a byte reruns the stage).
+    Binary,
 }
 
 /// `[stage.<name>]`, before validation.
@@ -98,6 +112,8 @@ pub struct Pipeline {
     pub artifacts: ArtifactPath,
     /// Stages in declaration order.
     pub stages: Vec<Stage>,
+    /// `[pipeline] stage_identity`.
+    pub stage_identity: StageIdentity,
 }
 
 impl Pipeline {
@@ -141,6 +157,7 @@ impl Pipeline {
             name: header.name,
             artifacts: ArtifactPath::new(dir, &artifacts),
             stages,
+            stage_identity: header.stage_identity.unwrap_or_default(),
         };
         pipeline.check_cross_stage()?;
         Ok(pipeline)

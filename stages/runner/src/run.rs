@@ -239,7 +239,7 @@ fn run_stage(
     let key = cache::current_key(stage, bin, &inputs).unwrap_or_default();
     Ok(LockEntry {
         key,
-        bin: FileRecord { path: bin.path.display().to_string(), blake3: bin.blake3.clone() },
+        bin: bin.record(),
         params: canonical_json(&stage.params),
         inputs: input_records,
         outputs,

@@ -1,6 +1,6 @@
 //! What every reprise stage binary shares: exit codes ([`exit`]), the stage error
 //! ([`StageError`]), the `main` wrapper that prints an error once and exits with its
-//! code ([`main`]), progress bars ([`progress`]) and the parameter record that goes
+//! code ([`main`]), progress bars or log lines ([`progress()`]) and the parameter record that goes
 //! into provenance ([`provenance`]).
 #![warn(missing_docs)]
 
@@ -8,6 +8,7 @@ pub mod error;
 pub mod exit;
 pub mod lifetime;
 pub mod panic;
+pub mod progress;
 pub mod rig;
 
 pub use error::{StageError, StageResult};
@@ -17,11 +18,25 @@ use indicatif::ProgressStyle;
 use reprise_artifact::Provenance;
 use serde::Serialize;
 
+/// What precedes a stage binary's code identity in its bytes (see [`embed_code_id!`]).
+pub const CODE_ID_MARKER: &str = "reprise-code-id=";
+
+/// The code identity a build script computed (`reprise_codeid::emit`) as the string
+/// `reprise-code-id=<64 hex>;`. Given to [`main`], which keeps it in the binary, where the
+/// runner finds it without running the binary and keys the stage's cache on it instead of
+/// on the binary's bytes. The argument names the compile-time environment variable.
+#[macro_export]
+macro_rules! code_id {
+    ($var:literal) => {
+        concat!("reprise-code-id=", env!($var), ";")
+    };
+}
+
 /// Environment variable: where the runner wants a stage's resource statistics, a JSON
 /// object `{"peak_rss_bytes": …}` written when the stage succeeds.
 pub const STATS_ENV: &str = "REPRISE_STATS_FILE";
 
-/// Runs a stage body and exits the process: 0 on success, otherwise the error's code
+/// Runs a stage body and exits the process (`code_id`: [`code_id!`]): 0 on success, otherwise the error's code
 /// after printing `<binary>: error: <message>` once to stderr.
 ///
 /// Around the body: a panic becomes one "internal error" line and exit code
@@ -30,7 +45,9 @@ pub const STATS_ENV: &str = "REPRISE_STATS_FILE";
 /// stage goes, and all are renamed into place only once the body succeeded
 /// ([`reprise_artifact::table::defer_commits`]), so a stage that fails or is killed
 /// leaves every old output as it was.
-pub fn main(binary: &str, body: impl FnOnce() -> StageResult<()>) -> ! {
+pub fn main(binary: &str, code_id: &'static str, body: impl FnOnce() -> StageResult<()>) -> ! {
+    // Keeps the identity's bytes in the executable (an unused string would be dropped).
+    std::hint::black_box(code_id);
     panic::install(binary);
     lifetime::die_with_runner();
     reprise_artifact::table::defer_commits();
@@ -87,20 +104,25 @@ pub fn print_answer_summary<'a>(
     eprintln!("{system:<16} answered {:>4} / {total:<4} requests, median latency {median} frames", latencies.len());
 }
 
-/// A progress bar on stderr (hidden when stderr is not a terminal).
+/// A progress bar on stderr: a bar on a terminal, a plain line every
+/// [`progress::LOG_EVERY`] otherwise (see [`progress::draw_target`]).
 pub fn progress(len: u64, message: &str) -> ProgressBar {
-    let bar = ProgressBar::new(len);
+    let bar = ProgressBar::with_draw_target(Some(len), progress::draw_target());
     bar.set_style(
-        ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} {elapsed}")
-            .expect("the template is valid")
-            .progress_chars("=> "),
+        ProgressStyle::with_template(progress::TEMPLATE).expect("the template is valid").progress_chars("=> "),
     );
     bar.set_message(message.to_string());
     bar
 }
 
-/// Progress bars shown together (one per parallel task), on stderr.
+/// Progress bars shown together (one per parallel task), on stderr; as lines when stderr
+/// is not a terminal.
 pub use indicatif::MultiProgress;
+
+/// A [`MultiProgress`] drawing where [`progress`] does.
+pub fn multi_progress() -> MultiProgress {
+    MultiProgress::with_draw_target(progress::draw_target())
+}
 
 /// A bar of [`progress`]'s style added to `multi`.
 pub fn progress_in(multi: &MultiProgress, len: u64, message: &str) -> ProgressBar {

@@ -9,7 +9,7 @@ const CHILD: &str = "REPRISE_STAGEKIT_PANIC_CHILD";
 #[test]
 fn a_panic_becomes_an_internal_error() {
     if std::env::var_os(CHILD).is_some() {
-        reprise_stagekit::main("reprise-test", || {
+        reprise_stagekit::main("reprise-test", "reprise-code-id=test;", || {
             let v: Vec<u32> = Vec::new();
             let _ = std::hint::black_box(&v)[3];
             Ok(())

@@ -3,7 +3,7 @@ use clap::Parser;
 
 fn main() {
     let args = reprise_bridges::Args::parse();
-    reprise_stagekit::main("reprise-bridges", || {
+    reprise_stagekit::main("reprise-bridges", reprise_stagekit::code_id!("REPRISE_CODE_ID_BRIDGES"), || {
         if let Some(out) = reprise_bridges::run(&args)? {
             if let (Some(m), Some(max)) = (out.frame_motion, out.max_mesh) {
                 eprintln!(

@@ -3,7 +3,7 @@ use clap::Parser;
 
 fn main() {
     let args = reprise_evaluate::Args::parse();
-    reprise_stagekit::main("reprise-evaluate", || {
+    reprise_stagekit::main("reprise-evaluate", reprise_stagekit::code_id!("REPRISE_CODE_ID_EVALUATE"), || {
         if let Some(m) = reprise_evaluate::run(&args)? {
             for row in m.iter().filter(|m| m.from == "all") {
                 eprintln!(

@@ -3,7 +3,7 @@ use clap::Parser;
 
 fn main() {
     let args = reprise_export::Args::parse();
-    reprise_stagekit::main("reprise-export-gltf", || {
+    reprise_stagekit::main("reprise-export-gltf", reprise_stagekit::code_id!("REPRISE_CODE_ID_EXPORT_GLTF"), || {
         if let Some(clips) = reprise_export::run(&args)? {
             for (name, frames) in &clips {
                 eprintln!("exported animation `{name}` ({frames} frames) into {}", args.glb.display());

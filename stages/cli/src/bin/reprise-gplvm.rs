@@ -3,7 +3,7 @@ use clap::Parser;
 
 fn main() {
     let args = reprise_gplvm::Args::parse();
-    reprise_stagekit::main("reprise-gplvm", || {
+    reprise_stagekit::main("reprise-gplvm", reprise_stagekit::code_id!("REPRISE_CODE_ID_GPLVM"), || {
         if let Some(fits) = reprise_gplvm::run(&args)? {
             eprintln!(
                 "{:<12} {:>6} {:>3} {:>11} {:>6} {:>13} {:>12} {:>10} {:>11} {:>8} {:>8} {:>14} {:>8}  held-out mesh RMS (GPLVM / PCA-q)",

@@ -3,7 +3,7 @@ use clap::Parser;
 
 fn main() {
     let args = reprise_motion_graph::Args::parse();
-    reprise_stagekit::main("reprise-motion-graph", || {
+    reprise_stagekit::main("reprise-motion-graph", reprise_stagekit::code_id!("REPRISE_CODE_ID_MOTION_GRAPH"), || {
         if let Some(s) = reprise_motion_graph::run(&args)? {
             eprintln!(
                 "{} local minima, {} transitions (windowed distance ≤ {:.4}); {} of {} frames survive pruning",

@@ -3,7 +3,7 @@ use clap::Parser;
 
 fn main() {
     let args = reprise_pca::Args::parse();
-    reprise_stagekit::main("reprise-pca", || {
+    reprise_stagekit::main("reprise-pca", reprise_stagekit::code_id!("REPRISE_CODE_ID_PCA"), || {
         if let Some(s) = reprise_pca::run(&args)? {
             eprintln!(
                 "{:<14} {:>6} {:>8} {:>3} {:>9} {:>10}",

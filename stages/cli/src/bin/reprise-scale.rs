@@ -3,7 +3,7 @@ use clap::Parser;
 
 fn main() {
     let args = reprise_scale::Args::parse();
-    reprise_stagekit::main("reprise-scale", || {
+    reprise_stagekit::main("reprise-scale", reprise_stagekit::code_id!("REPRISE_CODE_ID_SCALE"), || {
         if let Some(s) = reprise_scale::run(&args)? {
             eprintln!("{:<14} {:>5} {:>9} {:>9}", "label", "used", "constant", "no-effect");
             for (label, used, constant, none) in &s.labels {
