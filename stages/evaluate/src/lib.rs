@@ -382,11 +382,18 @@ fn measure_system(
     reqs: &[Request],
     system: &System,
 ) -> StageResult<Vec<Measured>> {
-    let per: Vec<StageResult<Option<Measured>>> = reqs
-        .par_iter()
-        .filter_map(|r| Some((r, system.answer(r)?, system.played.get(&r.request)?)))
-        .map(|(r, a, p)| measure::measure(rig, training, settings, r, a, p))
+    let todo: Vec<_> =
+        reqs.iter().filter_map(|r| Some((r, system.answer(r)?, system.played.get(&r.request)?))).collect();
+    let bar = reprise_stagekit::progress(todo.len() as u64, &format!("measure {}", system.id));
+    let per: Vec<StageResult<Option<Measured>>> = todo
+        .into_par_iter()
+        .map(|(r, a, p)| {
+            let m = measure::measure(rig, training, settings, r, a, p);
+            bar.inc(1);
+            m
+        })
         .collect();
+    bar.finish_and_clear();
     Ok(per.into_iter().collect::<StageResult<Vec<_>>>()?.into_iter().flatten().collect())
 }
 
