@@ -39,7 +39,7 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
 
     // The reloaded models: a training latent reconstructs its frame's PCA coordinates
     // through the GP, and its controls through the PCA basis and the unscaling.
-    let models = reprise_model::load(&a("gplvm_models"), &a("pca_models"), &a("scales")).unwrap();
+    let models = reprise_label_models::load(&a("gplvm_models"), &a("pca_models"), &a("scales")).unwrap();
     assert_eq!(models.models.len(), 8);
     let coords = pca::read_coords(&a("pca_coords")).unwrap();
     let m = models.require("roar").unwrap();

@@ -35,7 +35,7 @@ fn robot_expressive_through_gplvm() {
     let (_, models) = pca::read_models(&p.path("artifacts/robot-expressive/pca_models.parquet")).unwrap();
     assert_eq!(models.len(), 7);
     assert!(models.iter().all(|m| m.d() >= 3));
-    let gplvm = reprise_model::load(
+    let gplvm = reprise_label_models::load(
         &p.path("artifacts/robot-expressive/gplvm_models.parquet"),
         &p.path("artifacts/robot-expressive/pca_models.parquet"),
         &p.path("artifacts/robot-expressive/scales.parquet"),

@@ -23,7 +23,7 @@ use rayon::prelude::*;
 use reprise_artifact::bridges::{self, Bridge};
 use reprise_artifact::controls::Controls;
 use reprise_artifact::frames::LabeledFrames;
-use reprise_model::Models;
+use reprise_label_models::Models;
 use reprise_numerics::gplvm::{best_latent, LatentModel, ProjectOptions};
 use reprise_numerics::scg::ScgOptions;
 use reprise_stagekit::rig::{mesh_rmse, meshes};
@@ -279,9 +279,9 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
         provenance = provenance.with_input("labeled_frames", l)?;
     }
     // The models must have been fit on these labeled frames and controls (the PCA and
-    // scales are checked by `reprise_model::load`).
+    // scales are checked by `reprise_label_models::load`).
     reprise_artifact::provenance::check_made_from(&args.gplvm_models, &provenance)?;
-    let Models { controls, models } = reprise_model::load(&args.gplvm_models, &args.pca_models, &args.scales)?;
+    let Models { controls, models } = reprise_label_models::load(&args.gplvm_models, &args.pca_models, &args.scales)?;
     if models.len() < 2 {
         return Err(StageError::Input(format!(
             "{}: {} label model(s); bridges need at least two",

@@ -3,7 +3,7 @@
 //! differences between systems on the requests both answered.
 
 use reprise_artifact::transitions::Request;
-use reprise_metrics::bootstrap_mean_ci;
+use reprise_motion_metrics::bootstrap_mean_ci;
 
 use crate::measure::{Measured, Phase, PlausibilityReference as Reference, Space};
 use crate::systems::System;

@@ -173,7 +173,7 @@ pub fn latency_histograms(series: &[(String, Vec<f64>, usize)]) -> String {
                 lo + (b + 1) as f64 * width
             );
         }
-        let median = reprise_metrics::quantile(v, 0.5);
+        let median = reprise_motion_metrics::quantile(v, 0.5);
         let _ = write!(
             s,
             "<line x1='140' y1='{base}' x2='{}' y2='{base}' stroke='#999'/><text x='{}' y='{}' font-size='11'>n = {}, median {median:.2} s, unanswered {unanswered}</text>",

@@ -73,7 +73,7 @@ pub fn figures<'a>(inp: Inputs<'a>, provenance: &reprise_artifact::Provenance) -
     let mut best: Vec<&bridges::Bridge> = inp.links.iter().filter(|b| b.rank == 1).collect();
     let latent_bridges =
         best.iter().filter_map(|b| Some((index(&b.from)?, xy(&b.x1), index(&b.to)?, xy(&b.x2)))).collect();
-    let models = reprise_model::load(&args.gplvm_models, &args.pca_models, &args.scales)?;
+    let models = reprise_label_models::load(&args.gplvm_models, &args.pca_models, &args.scales)?;
     best.sort_by(|a, b| {
         a.mesh_distance.unwrap_or(a.rig_distance).total_cmp(&b.mesh_distance.unwrap_or(b.rig_distance))
     });

@@ -278,7 +278,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     let maps = pcas
         .iter()
         .filter(|p| p.variant == pca::SCALED)
-        .map(|p| Ok((p.label.clone(), reprise_model::rig_map(p, &pca_controls, &scale_rows, &args.scales)?)))
+        .map(|p| Ok((p.label.clone(), reprise_label_models::rig_map(p, &pca_controls, &scale_rows, &args.scales)?)))
         .collect::<StageResult<Vec<_>>>()?;
     let training = Training::measure(&rig, &labeled, weight, &maps, args.mesh_reference_limit)?;
     let pairs: Vec<(String, String)> = {

@@ -127,7 +127,7 @@ pub struct Inputs<'a> {
     /// The bridges and the models they are poses of (reprise's captions).
     pub bridges: &'a [Bridge],
     /// The GPLVM models.
-    pub models: &'a reprise_model::Models,
+    pub models: &'a reprise_label_models::Models,
     /// Synthesized scripts.
     pub curves: &'a Curves,
     /// Label order.

@@ -8,7 +8,7 @@
 
 use rayon::prelude::*;
 use reprise_artifact::frames::LabeledFrames;
-use reprise_metrics::{nearest_k, peak_speeds, peaks, quantile};
+use reprise_motion_metrics::{nearest_k, peak_speeds, peaks, quantile};
 use reprise_numerics::gplvm::RigMap;
 use reprise_stagekit::rig::{mesh_rmse, meshes};
 use reprise_stagekit::{StageError, StageResult};

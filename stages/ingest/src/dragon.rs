@@ -5,10 +5,10 @@
 use reprise_artifact::clips::Clip;
 use reprise_artifact::controls::{Control, Controls, RigRef};
 use reprise_artifact::frames::Frames;
-use reprise_dragonface::{generate_corpus_scaled, DragonRig};
+use reprise_dragon_face::{generate_corpus_scaled, DragonRig};
 
 /// The corpus's frame rate.
-pub(crate) const FPS: f64 = reprise_dragonface::FPS;
+pub(crate) const FPS: f64 = reprise_dragon_face::FPS;
 
 /// Frames, controls and clips of the dragon-face corpus for `seed`, its frame budget
 /// scaled by `scale`.

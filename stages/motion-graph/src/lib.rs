@@ -1,4 +1,4 @@
-//! The motion-graph stage: the Motion Graphs baseline ([`reprise_motiongraph`]) on the
+//! The motion-graph stage: the Motion Graphs baseline ([`reprise_transition_graph`]) on the
 //! labeled frames. A frame's pose is its scaled control vector $z_c = \bar w_c p_c$ with
 //! $\bar w_c$ the control's scale-stage weight averaged over the labels that use it (one
 //! metric for the whole graph: mesh length per control unit); masked controls are absent.
@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::motion_graph::{self, Edge, Nodes};
 use reprise_artifact::scales;
-use reprise_motiongraph::{largest_scc, local_minima, window_distances, Graph};
+use reprise_transition_graph::{largest_scc, local_minima, window_distances, Graph};
 use reprise_stagekit::{StageError, StageResult};
 use serde::Serialize;
 

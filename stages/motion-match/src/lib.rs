@@ -8,7 +8,7 @@
 //!   the database plays on and, every `search_interval` seconds (the first search at a
 //!   seeded phase of that timer), jumps to the best frame of the requested label; every jump
 //!   is inertialized in rig space by one critically damped spring per control with
-//!   half-life `halflife` ([`reprise_motionmatch`] has the search, the springs and the
+//!   half-life `halflife` ([`reprise_matching`] has the search, the springs and the
 //!   switch rule).
 //! - **crossfade**, the floor every method must beat: on the request, the requested label's
 //!   frame nearest the current pose in scaled control space, crossfaded in over
@@ -31,7 +31,7 @@ use reprise_artifact::curves::{self, Curves};
 use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::scales;
 use reprise_artifact::transitions::{self, Answer, Request};
-use reprise_motionmatch::{
+use reprise_matching::{
     crossfade, transition, ControllerSettings, Database, FeatureDb, FeatureParams, MatchError, Playback,
     TransitionRequest,
 };

@@ -1,5 +1,5 @@
 //! The synthesize stage (Bailey et al. 2016 §5): every script of a scripts file (see
-//! [`reprise_synth::script`]) is run by the command engine ([`reprise_synth::engine`])
+//! [`reprise_synth_engine::script`]) is run by the command engine ([`reprise_synth_engine::engine`])
 //! over the label models and bridges, and written as rig-control curves. Scripts run in
 //! parallel; each is deterministic for its seed.
 
@@ -12,10 +12,10 @@ use reprise_artifact::bridges;
 use reprise_artifact::curves::{self, Curves};
 use reprise_artifact::gplvm;
 use reprise_stagekit::{StageError, StageResult};
-use reprise_synth::engine::{self, Library, Link, Settings, TrainingFrame};
-use reprise_synth::particle::ConstraintSign;
-use reprise_synth::path::EdgeCost;
-use reprise_synth::script::Script;
+use reprise_synth_engine::engine::{self, Library, Link, Settings, TrainingFrame};
+use reprise_synth_engine::particle::ConstraintSign;
+use reprise_synth_engine::path::EdgeCost;
+use reprise_synth_engine::script::Script;
 use serde::Serialize;
 
 /// The constraint multiplier's sign.
@@ -115,7 +115,7 @@ impl Args {
         let d = Settings::default();
         Settings {
             fps: self.fps,
-            particle: reprise_synth::particle::ParticleParams {
+            particle: reprise_synth_engine::particle::ParticleParams {
                 omega0: self.omega0,
                 sign: match self.sign {
                     Sign::Corrected => ConstraintSign::Corrected,
@@ -212,7 +212,7 @@ impl ModelInputs {
 #[derive(Debug)]
 pub struct LibraryParts {
     /// The models.
-    pub models: reprise_model::Models,
+    pub models: reprise_label_models::Models,
     /// Per model, its training frames.
     pub frames: Vec<Vec<TrainingFrame>>,
     /// The bridges.
@@ -229,8 +229,8 @@ impl LibraryParts {
         scales: &std::path::Path,
         bridges_path: &std::path::Path,
     ) -> StageResult<Self> {
-        reprise_model::check_library(gplvm_models, latents, pca_models, scales, bridges_path)?;
-        let models = reprise_model::load(gplvm_models, pca_models, scales)?;
+        reprise_label_models::check_library(gplvm_models, latents, pca_models, scales, bridges_path)?;
+        let models = reprise_label_models::load(gplvm_models, pca_models, scales)?;
         let lat = gplvm::read_latents(latents)?;
         let frames = models
             .models

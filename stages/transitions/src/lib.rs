@@ -28,10 +28,10 @@ use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::motion_graph;
 use reprise_artifact::transitions::{self, Answer, Request};
 
-use reprise_motiongraph::{blend_weight, Graph};
+use reprise_transition_graph::{blend_weight, Graph};
 use reprise_stagekit::{StageError, StageResult};
-use reprise_synth::engine::{self, Settings};
-use reprise_synth::script::{Command, Script, Start};
+use reprise_synth_engine::engine::{self, Settings};
+use reprise_synth_engine::script::{Command, Script, Start};
 use reprise_synthesize::ModelInputs;
 use serde::Serialize;
 
@@ -227,7 +227,7 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     if args.per_pair == 0
         || args.hold.is_nan()
         || args.hold < 0.0
-        || args.hold > reprise_synth::script::MAX_SECONDS
+        || args.hold > reprise_synth_engine::script::MAX_SECONDS
         || args.window < 2
         || !(0.0..=10.0).contains(&args.path_slack)
     {

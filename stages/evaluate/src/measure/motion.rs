@@ -1,7 +1,7 @@
 //! Smoothness on the mesh: peak vertex acceleration and jerk over the whole answer, pose
 //! jumps, and the peak-speed trace around the arrival in B.
 
-use reprise_metrics::{peak_speeds, peaks};
+use reprise_motion_metrics::{peak_speeds, peaks};
 
 use super::{SPEED_AFTER, SPEED_BEFORE};
 use crate::training::Training;

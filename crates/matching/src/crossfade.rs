@@ -1,0 +1,170 @@
+//! The crossfade baseline — the floor every transition method must beat.
+//!
+//! On a request while start frame $s$ is shown, pick the target frame $j$ nearest the
+//! current pose in scaled control space, $j = \arg\min_t \lVert z_t - z_s\rVert^2$ over the
+//! target's frames with `blend_frames` $= k$ frames of continuation in their segment
+//! ($t + \max(k,1) \le$ segment end), lowest index on ties. Then for $p = 0,\dots,k-1$
+//! output
+//! $$\alpha(p)\,z^A_p + (1-\alpha(p))\,z_{j+1+p},$$
+//! with $\alpha$ the Motion Graphs ease ([`reprise_transition_graph::blend_weight`]: $\alpha(-1) =
+//! 1$, $\alpha(k-1) = 0$, zero slope at both ends) so both baselines blend alike, and
+//! $z^A_p = z_{\min(s+1+p,\ \text{segment\_end}(s))}$: the source **keeps playing** while it
+//! has frames and holds its last frame after. From $p = k$ on, $B$ plays on ($z_{j+1+p}$).
+//! When $B$'s segment ends the same rule chains a new crossfade from its last (held)
+//! frame. $k = 0$ is a hard cut.
+
+use crate::database::{Database, FrameSet};
+use crate::error::{check_finite, check_len, MatchError, Result};
+use crate::playback::Playback;
+use crate::search::Match;
+use reprise_transition_graph::blend_weight;
+
+/// The frames of `label` a crossfade of `blend_frames` may start from.
+pub fn crossfade_candidates(db: &Database, label: u32, blend_frames: usize) -> FrameSet {
+    let need = blend_frames.max(1);
+    FrameSet::from_predicate(db.len(), |t| db.label(t) == label && t + need <= db.segment_end(t))
+}
+
+/// The candidate nearest `pose` in squared Euclidean distance on $z$ (lowest index on
+/// ties), `None` if `candidates` is empty.
+///
+/// # Errors
+/// [`MatchError::Length`] / [`MatchError::NonFinite`] for a bad pose,
+/// [`MatchError::Mismatch`] if `candidates` belongs to another database.
+pub fn nearest_pose(db: &Database, pose: &[f64], candidates: &FrameSet) -> Result<Option<Match>> {
+    check_len("pose", db.dim(), pose.len())?;
+    check_finite("pose", pose, db.dim())?;
+    if candidates.universe() != db.len() {
+        return Err(MatchError::Mismatch {
+            what: "candidate frames",
+            expected: db.len(),
+            actual: candidates.universe(),
+        });
+    }
+    let mut best: Option<Match> = None;
+    for t in candidates.iter() {
+        let cost: f64 = db.row(t).iter().zip(pose).map(|(a, b)| (a - b) * (a - b)).sum();
+        if best.is_none_or(|m| cost < m.cost) {
+            best = Some(Match { frame: t, cost });
+        }
+    }
+    Ok(best)
+}
+
+/// Crossfades from `start` into label `target` over `blend_frames`, producing `frames`
+/// output frames (frame 0 follows the request).
+///
+/// # Errors
+/// [`MatchError::FrameOutOfRange`], [`MatchError::NoSearchableFrames`] if `target` has no
+/// frame with `blend_frames` frames of continuation.
+pub fn crossfade(db: &Database, start: usize, target: u32, blend_frames: usize, frames: usize) -> Result<Playback> {
+    db.check_frame(start)?;
+    let candidates = crossfade_candidates(db, target, blend_frames);
+    let pick = |from: usize| -> Result<usize> {
+        let m = nearest_pose(db, db.row(from), &candidates)?;
+        m.map(|m| m.frame + 1).ok_or(MatchError::NoSearchableFrames { label: target, needed: blend_frames.max(1) })
+    };
+    let mut out = Playback::new(db.dim(), target, frames);
+    let mut row = vec![0.0; db.dim()];
+    // `a`: the frame being left; `b`: the target frame playing; `p`: frames into the blend.
+    let (mut a, mut b, mut p) = (start, pick(start)?, 0);
+    for _ in 0..frames {
+        let alpha = if p < blend_frames {
+            if db.has_next(a) {
+                a += 1;
+            }
+            let alpha = blend_weight(p as f64, blend_frames);
+            for ((o, za), zb) in row.iter_mut().zip(db.row(a)).zip(db.row(b)) {
+                *o = alpha * za + (1.0 - alpha) * zb;
+            }
+            alpha
+        } else {
+            row.copy_from_slice(db.row(b));
+            0.0
+        };
+        out.push(&row, b, db.label(b), p == 0, alpha);
+        p += 1;
+        if db.has_next(b) {
+            b += 1;
+        } else {
+            (a, b, p) = (b, pick(b)?, 0);
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::two_sines;
+    use approx::assert_abs_diff_eq;
+
+    /// One control. Label 0: frames 0..=5, z = 0..5. Label 1: frames 6..=13,
+    /// z = 10, 2.2, 7, 3.1, 9, 9, 8, 3.0. With k = 2 candidates are 6..=11 (frame 13's
+    /// 3.0 is nearer to z = 3 but has no continuation).
+    fn toy() -> Database {
+        let z = vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 10.0, 2.2, 7.0, 3.1, 9.0, 9.0, 8.0, 3.0];
+        let labels: Vec<u32> = (0..14).map(|t| u32::from(t >= 6)).collect();
+        Database::new(z, 1, labels.clone(), &labels, 24.0).unwrap()
+    }
+
+    /// The nearest candidate is chosen, and the output is the hand-computed blend:
+    /// α(0) = 2/8 − 3/4 + 1 = ½ for k = 2, so frame 0 = ½·z₄ + ½·z₁₀ = 6.5, frame 1 = z₁₁
+    /// (α(1) = 0), then z₁₂, z₁₃; B's segment ends, and a new crossfade from the held
+    /// frame 13 (3.0) picks frame 9 again: ½·3.0 + ½·z₁₀ = 6.
+    #[test]
+    fn nearest_frame_and_hand_computed_blend() {
+        let db = toy();
+        let cand = crossfade_candidates(&db, 1, 2);
+        assert_eq!(cand.iter().collect::<Vec<_>>(), (6..=11).collect::<Vec<_>>());
+        let m = nearest_pose(&db, db.row(3), &cand).unwrap().unwrap();
+        assert_eq!(m.frame, 9);
+        assert_abs_diff_eq!(m.cost, 0.01, epsilon = 1e-12);
+        let out = crossfade(&db, 3, 1, 2, 6).unwrap();
+        assert_eq!(out.z, [6.5, 9.0, 8.0, 3.0, 6.0, 9.0]);
+        assert_eq!(out.frames, [10, 11, 12, 13, 10, 11]);
+        assert_eq!(out.switches, [true, false, false, false, true, false]);
+        assert_eq!(out.source_weight, [0.5, 0.0, 0.0, 0.0, 0.5, 0.0]);
+        assert_eq!(out.latency, Some(0));
+        // k = 0 is a hard cut to the frame after the nearest one.
+        assert_eq!(crossfade(&db, 3, 1, 0, 2).unwrap().z, [9.0, 9.0]);
+    }
+
+    /// On the sines (label 1 = label 0 + constant in control 2), from frame s = 30 the
+    /// nearest label-1 frame is the phase-matched 150; output frame p of a 12-frame blend is
+    /// α(p)·z₃₁₊ₚ + (1 − α(p))·z₁₅₁₊ₚ with α written out here; the first output frame is
+    /// continuous with the last one before the request.
+    #[test]
+    fn sine_blend_is_continuous() {
+        let (db, _) = two_sines(1.0, 24);
+        let (s, k) = (30, 12);
+        let out = crossfade(&db, s, 1, k, 20).unwrap();
+        assert_eq!(out.frames[0], 151);
+        for p in [0, 5, 11] {
+            let u = (p as f64 + 1.0) / k as f64;
+            let alpha = 2.0 * u.powi(3) - 3.0 * u.powi(2) + 1.0;
+            for c in 0..3 {
+                let want = alpha * db.row(s + 1 + p)[c] + (1.0 - alpha) * db.row(151 + p)[c];
+                assert_abs_diff_eq!(out.row(p)[c], want, epsilon = 1e-12);
+            }
+        }
+        let dist =
+            |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt() };
+        let step = dist(db.row(s + 1), db.row(s));
+        assert!(dist(out.row(0), db.row(s)) < 1.2 * step);
+        // Every step of the blend stays small (the gap of 1 is spread over 12 frames).
+        assert!((1..20).all(|k| dist(out.row(k), out.row(k - 1)) < 0.25));
+    }
+
+    #[test]
+    fn bad_input_is_an_error() {
+        let db = toy();
+        assert!(matches!(crossfade(&db, 3, 1, 8, 5), Err(MatchError::NoSearchableFrames { label: 1, needed: 8 })));
+        assert!(matches!(crossfade(&db, 3, 9, 2, 5), Err(MatchError::NoSearchableFrames { .. })));
+        assert!(matches!(crossfade(&db, 14, 1, 2, 5), Err(MatchError::FrameOutOfRange { .. })));
+        let cand = crossfade_candidates(&db, 1, 2);
+        assert!(matches!(nearest_pose(&db, &[0.0, 1.0], &cand), Err(MatchError::Length { .. })));
+        assert!(matches!(nearest_pose(&db, &[f64::NAN], &cand), Err(MatchError::NonFinite { .. })));
+        assert!(matches!(nearest_pose(&db, &[0.0], &FrameSet::empty(3)), Err(MatchError::Mismatch { .. })));
+    }
+}

@@ -1,0 +1,229 @@
+//! `reprise-bench`: the benchmarks, one command. Prints a Markdown report of
+//! - the default pipeline: seconds and peak memory per stage, and a no-op rerun;
+//! - rig evaluations per second (dragon-face; CMU BVH where `../shared/datasets` exists);
+//! - ingest of a 20-minute, 742-control corpus (28,800 frames) from a Parquet curve table;
+//! - the whole pipeline on a 20-minute dragon-face corpus: seconds and peak memory per stage.
+//!
+//! Run from the repository root after `cargo build --release`:
+//! `target/release/reprise-bench`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+use clap::Parser;
+use reprise_rig::Rig;
+
+/// Runs reprise's benchmarks and prints a Markdown report.
+#[derive(Parser)]
+#[command(name = "reprise-bench", version, about)]
+struct Args {
+    /// Repository root (holds pipeline.toml and datasets/).
+    #[arg(long, default_value = ".")]
+    repo: PathBuf,
+    /// Minutes of animation for the large-ingest benchmark.
+    #[arg(long, default_value_t = 20.0)]
+    minutes: f64,
+}
+
+fn main() {
+    let args = Args::parse();
+    if let Err(e) = bench(&args) {
+        eprintln!("reprise-bench: error: {e}");
+        std::process::exit(1);
+    }
+}
+
+type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
+
+fn bin(name: &str) -> PathBuf {
+    std::env::current_exe().expect("own path").with_file_name(name)
+}
+
+fn bench(args: &Args) -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    println!("# reprise benchmarks\n");
+    println!("{} logical CPUs; every number below is from this run\n", num_cpus());
+    pipeline(args, dir.path())?;
+    rigs(args, dir.path())?;
+    big_ingest(args, dir.path())?;
+    let big = tempfile::tempdir()?;
+    film_scale(args, big.path())?;
+    Ok(())
+}
+
+fn num_cpus() -> usize {
+    std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
+}
+
+/// Runs `pipeline_toml` (with `labels` as datasets/dragon-face/labels.toml) in `dir`,
+/// then once more with nothing changed; returns both wall times and the lock file.
+fn run_pipeline(dir: &Path, pipeline_toml: &str, labels: &str) -> Result<(f64, f64, serde_json::Value)> {
+    std::fs::create_dir_all(dir.join("datasets/dragon-face"))?;
+    std::fs::write(dir.join("pipeline.toml"), pipeline_toml)?;
+    std::fs::write(dir.join("datasets/dragon-face/labels.toml"), labels)?;
+    let run = || -> Result<f64> {
+        let t = Instant::now();
+        let out = Command::new(bin("reprise")).arg("run").current_dir(dir).output()?;
+        if !out.status.success() {
+            return Err(format!("the pipeline failed: {}", String::from_utf8_lossy(&out.stderr)).into());
+        }
+        Ok(t.elapsed().as_secs_f64())
+    };
+    let first = run()?;
+    let again = run()?;
+    let lock = serde_json::from_str(&std::fs::read_to_string(dir.join("artifacts/dragon-face/reprise.lock"))?)?;
+    Ok((first, again, lock))
+}
+
+/// A Markdown table of each stage's seconds and peak memory from a lock file.
+fn print_stages(lock: &serde_json::Value, first: f64, again: f64) {
+    println!("| stage | seconds | peak memory (MB) |\n|---|---:|---:|");
+    for (name, entry) in lock["stages"].as_object().into_iter().flatten() {
+        let mb = entry["peak_rss_mb"].as_f64().map_or("-".into(), |m| format!("{m:.0}"));
+        println!("| {name} | {:.2} | {mb} |", entry["seconds"].as_f64().unwrap_or(f64::NAN));
+    }
+    println!("| **whole run** | {first:.2} | |\n| no-op rerun | {again:.3} | |\n");
+}
+
+/// The default pipeline in a scratch copy, then a no-op rerun, and artifact sizes.
+fn pipeline(args: &Args, dir: &Path) -> Result<()> {
+    let toml = std::fs::read_to_string(args.repo.join("pipeline.toml"))?;
+    let labels = std::fs::read_to_string(args.repo.join("datasets/dragon-face/labels.toml"))?;
+    let (first, again, lock) = run_pipeline(dir, &toml, &labels)?;
+    println!("## Default pipeline (dragon-face, 3,745 labeled frames)\n");
+    print_stages(&lock, first, again);
+    let mut sizes: Vec<(String, u64)> = std::fs::read_dir(dir.join("artifacts/dragon-face"))?
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().extension().is_some_and(|x| x == "parquet"))
+        .map(|e| (e.file_name().to_string_lossy().into_owned(), e.metadata().map_or(0, |m| m.len())))
+        .collect();
+    sizes.sort();
+    println!("| artifact | size (KiB) |\n|---|---:|");
+    for (name, bytes) in sizes {
+        println!("| {name} | {:.0} |", bytes as f64 / 1024.0);
+    }
+    println!();
+    Ok(())
+}
+
+/// The same pipeline on a dragon-face corpus of `minutes` minutes (every label's budget
+/// scaled), with the labels file the generator writes for that corpus.
+fn film_scale(args: &Args, dir: &Path) -> Result<()> {
+    let scale = args.minutes * 60.0 * 24.0 / 3745.0;
+    let toml = std::fs::read_to_string(args.repo.join("pipeline.toml"))?
+        .replace("seed = 7\n", &format!("seed = 7\ncorpus_scale = {scale}\n"));
+    let rig = reprise_dragon_face::DragonRig::new(7);
+    let labels = reprise_dragon_face::labels_toml(&reprise_dragon_face::generate_corpus_scaled(&rig, 7, scale));
+    let (first, again, lock) = run_pipeline(dir, &toml, &labels)?;
+    let frames =
+        reprise_artifact::frames::LabeledFrames::read(&dir.join("artifacts/dragon-face/labeled_frames.parquet"))?;
+    println!(
+        "## The pipeline at film scale ({} minutes: {} labeled frames × {} controls)\n",
+        args.minutes,
+        frames.frames.rows(),
+        frames.frames.controls.len()
+    );
+    print_stages(&lock, first, again);
+    Ok(())
+}
+
+/// Poses per second through `Rig::evaluate_batch` (all cores).
+fn rate(rig: &dyn Rig, poses: &[f64]) -> Result<f64> {
+    let n = poses.len() / rig.control_names().len();
+    let mut out = vec![0.0; n * 3 * rig.vertex_count()];
+    rig.evaluate_batch(poses, &mut out)?; // warm-up
+    let t = Instant::now();
+    let mut reps = 0;
+    while t.elapsed().as_secs_f64() < 1.0 {
+        rig.evaluate_batch(poses, &mut out)?;
+        reps += 1;
+    }
+    Ok((reps * n) as f64 / t.elapsed().as_secs_f64())
+}
+
+fn rigs(args: &Args, dir: &Path) -> Result<()> {
+    println!("## Rig evaluations per second ({} threads)\n", num_cpus());
+    println!("| rig | controls | vertices | evaluations/s |\n|---|---:|---:|---:|");
+    let frames = reprise_artifact::frames::Frames::read(&dir.join("artifacts/dragon-face/frames.parquet"))?;
+    let dragon = reprise_rig::dragon::open(7, reprise_dragon_face::DragonRig::VERSION)?;
+    let poses: Vec<f64> = frames.values[..1000.min(frames.rows()) * frames.controls.len()].to_vec();
+    let r = rate(&dragon, &poses)?;
+    println!("| dragon-face | {} | {} | {r:.0} |", frames.controls.len(), dragon.vertex_count());
+    let cmu = args.repo.join("../shared/datasets/cmu_bvh/131_01.bvh");
+    if cmu.exists() {
+        let hash = reprise_artifact::provenance::hash_file(&cmu)?;
+        let rig = reprise_rig::skeleton::open_bvh(Path::new("/"), &cmu.canonicalize()?.display().to_string(), &hash)?;
+        let poses: Vec<f64> = (0..1000).flat_map(|_| rig.rest_pose()).collect();
+        let r = rate(&rig, &poses)?;
+        println!("| CMU BVH 131_01 | {} | {} | {r:.0} |", rig.control_names().len(), rig.vertex_count());
+    } else {
+        println!("| CMU BVH | skipped: ../shared/datasets not found | | |");
+    }
+    let robot = args.repo.join("../shared/datasets/robot_expressive/RobotExpressive.glb");
+    if robot.exists() {
+        let hash = reprise_artifact::provenance::hash_file(&robot)?;
+        let path = robot.canonicalize()?.display().to_string();
+        let rig = reprise_rig::skeleton::open_gltf(Path::new("/"), &path, &hash)?;
+        let poses: Vec<f64> = (0..500).flat_map(|_| rig.rest_pose()).collect();
+        let r = rate(&rig, &poses)?;
+        println!("| RobotExpressive (glTF) | {} | {} | {r:.0} |", rig.control_names().len(), rig.vertex_count());
+    } else {
+        println!("| RobotExpressive | skipped: ../shared/datasets not found | | |");
+    }
+    println!();
+    Ok(())
+}
+
+/// A `minutes`-long wide Parquet curve table (tiled from the dragon-face corpus),
+/// ingested by the real stage binary: the curve-table path at film scale.
+fn big_ingest(args: &Args, dir: &Path) -> Result<()> {
+    use reprise_artifact::{table, Columns, Kind, Provenance};
+    let frames = reprise_artifact::frames::Frames::read(&dir.join("artifacts/dragon-face/frames.parquet"))?;
+    let rows = (args.minutes * 60.0 * 24.0).round() as usize;
+    let clip_len = 1200;
+    let mut cols = Columns::new()
+        .str("clip", &(0..rows).map(|r| format!("shot{:03}", r / clip_len)).collect::<Vec<_>>())
+        .i64("frame", (0..rows).map(|r| (r % clip_len) as i64).collect());
+    for (c, name) in frames.controls.iter().enumerate() {
+        cols =
+            cols.f64(name, (0..rows).map(|r| frames.values[(r % frames.rows()) * frames.controls.len() + c]).collect());
+    }
+    let path = dir.join("big.parquet");
+    table::write(
+        &path,
+        Kind { name: "curves", version: 1 },
+        cols,
+        &Provenance::new("bench", "0", serde_json::json!({})),
+        &[],
+    )?;
+    let stats = dir.join("big.stats.json");
+    let t = Instant::now();
+    let out = Command::new(bin("reprise-ingest"))
+        .args([
+            "--curves",
+            "big.parquet",
+            "--frames",
+            "bf.parquet",
+            "--controls",
+            "bc.parquet",
+            "--clips",
+            "bk.parquet",
+        ])
+        .current_dir(dir)
+        .env(reprise_stagekit::STATS_ENV, &stats)
+        .output()?;
+    let seconds = t.elapsed().as_secs_f64();
+    if !out.status.success() {
+        return Err(format!("ingest failed: {}", String::from_utf8_lossy(&out.stderr)).into());
+    }
+    let peak: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats)?)?;
+    println!("## Ingest of a {}-minute curve table\n", args.minutes);
+    println!(
+        "{rows} frames × {} controls from a {:.0} MiB Parquet table: {seconds:.2} s, peak memory {:.0} MB\n",
+        frames.controls.len(),
+        std::fs::metadata(&path)?.len() as f64 / 1_048_576.0,
+        peak["peak_rss_bytes"].as_f64().unwrap_or(0.0) / 1_048_576.0
+    );
+    Ok(())
+}
