@@ -138,6 +138,14 @@ pub enum Error {
     #[error("{file}: stage `{stage}`: `after` names unknown stage `{after}`")]
     UnknownAfter { file: String, stage: String, after: String },
 
+    /// A declared input that wiring cannot find (see [`crate::wire`]).
+    #[error("{file}: stage `{stage}`: input `{input}` is not given and cannot be wired: {why}")]
+    Unwired { file: String, stage: String, input: String, why: String },
+
+    /// A stage table without `bin` whose name is no known stage.
+    #[error("{file}: stage `{stage}` has no `bin`, and no known stage is called `{stage}` (known: {known})")]
+    NoBin { file: String, stage: String, known: String },
+
     /// A key `pipeline.toml` does not know.
     #[error("{file}: {context}: unknown key `{key}`{}", hint(suggestion.as_deref(), expected))]
     UnknownKey {
@@ -174,6 +182,8 @@ impl Error {
             | Self::PipelineRead { .. }
             | Self::PipelineSyntax { .. }
             | Self::UnknownAfter { .. }
+            | Self::Unwired { .. }
+            | Self::NoBin { .. }
             | Self::UnknownKey { .. }
             | Self::UnknownStage { .. } => exit::CONFIG,
             Self::Io { source, .. } | Self::LockWrite { source, .. } if exit::is_environment(source) => {

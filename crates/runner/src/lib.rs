@@ -9,6 +9,7 @@
 //! |---|---|
 //! | [`cli`] | the clap command line |
 //! | [`pipeline`] | `pipeline.toml`: parsing and validation |
+//! | [`wire`] | wiring by artifact: what a declared stage leaves out of `pipeline.toml` |
 //! | [`paths`] | normalising and resolving declared paths |
 //! | [`params`] | parameter values and their canonical forms |
 //! | [`dag`] | dependencies, cycles, run order |
@@ -43,6 +44,7 @@ pub mod paths;
 pub mod pipeline;
 pub mod run;
 pub mod status;
+pub mod wire;
 
 use std::ffi::OsString;
 use std::io::Write;
@@ -50,6 +52,7 @@ use std::path::Path;
 
 use clap::Parser;
 use reprise_stagekit::exit;
+use reprise_stagekit::wiring::Wiring;
 
 pub use error::{Error, Result};
 
@@ -61,13 +64,24 @@ use crate::pipeline::Pipeline;
 /// Entry point of the `reprise` binary: parses `args` (program name first), runs the
 /// command, prints any error once to stderr, and returns the process exit code.
 pub fn main_with_args(args: impl IntoIterator<Item = OsString>) -> i32 {
-    main_with_io(args, &mut std::io::stdout().lock(), &mut std::io::stderr())
+    main_with_io(args, &[], &mut std::io::stdout().lock(), &mut std::io::stderr())
+}
+
+/// As [`main_with_args`], knowing the stages `known` declare (see [`wire`]): what the
+/// `reprise` executable runs, with every reprise stage's declaration.
+pub fn main_with_stages(args: impl IntoIterator<Item = OsString>, known: &'static [Wiring]) -> i32 {
+    main_with_io(args, known, &mut std::io::stdout().lock(), &mut std::io::stderr())
 }
 
 /// As [`main_with_args`], writing the runner's own output to `stdout` and `stderr` (stage
 /// processes still inherit the real ones). Bare stage binary names are looked up with the
 /// process environment (`REPRISE_BIN_DIR`, the current executable's directory, `PATH`).
-pub fn main_with_io(args: impl IntoIterator<Item = OsString>, stdout: &mut dyn Write, stderr: &mut dyn Write) -> i32 {
+pub fn main_with_io(
+    args: impl IntoIterator<Item = OsString>,
+    known: &'static [Wiring],
+    stdout: &mut dyn Write,
+    stderr: &mut dyn Write,
+) -> i32 {
     let cli = match Cli::try_parse_from(args) {
         Ok(cli) => cli,
         Err(e) => {
@@ -81,14 +95,14 @@ pub fn main_with_io(args: impl IntoIterator<Item = OsString>, stdout: &mut dyn W
             };
         }
     };
-    let dirs = BinDirs::from_env();
+    let dirs = BinDirs { known, ..BinDirs::from_env() };
     let result = match &cli.command {
         Command::Run(args) => {
             let _ = stdout.flush();
             run::run(args, &dirs, stderr)
         }
         Command::Status(args) => status::status(&args.pipeline, &dirs, stdout, stderr),
-        Command::Dag(args) => load(&args.pipeline.pipeline).map(|(p, d)| {
+        Command::Dag(args) => load(&args.pipeline.pipeline, dirs.known).map(|(p, d)| {
             let _ = write!(stdout, "{}", dag_view::render(&p, &d, args.format));
         }),
         Command::Inspect(args) => inspect::inspect(args).map(|text| {
@@ -105,9 +119,10 @@ pub fn main_with_io(args: impl IntoIterator<Item = OsString>, stdout: &mut dyn W
     }
 }
 
-/// Reads, validates and orders the pipeline at `path`.
-pub fn load(path: &Path) -> Result<(Pipeline, Dag)> {
-    let pipeline = Pipeline::load(path)?;
+/// Reads, validates and orders the pipeline at `path`, wiring the stages declared in
+/// `known`.
+pub fn load(path: &Path, known: &[Wiring]) -> Result<(Pipeline, Dag)> {
+    let pipeline = Pipeline::load_wired(path, known)?;
     let dag = Dag::build(&pipeline)?;
     Ok((pipeline, dag))
 }
@@ -118,7 +133,7 @@ mod tests {
 
     fn call(args: &[&str]) -> (i32, String, String) {
         let (mut out, mut err) = (Vec::new(), Vec::new());
-        let code = main_with_io(args.iter().map(OsString::from), &mut out, &mut err);
+        let code = main_with_io(args.iter().map(OsString::from), &[], &mut out, &mut err);
         (code, String::from_utf8(out).unwrap(), String::from_utf8(err).unwrap())
     }
 

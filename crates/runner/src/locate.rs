@@ -18,6 +18,9 @@ pub struct BinDirs {
     pub exe_dir: Option<PathBuf>,
     /// The entries of `$PATH`.
     pub path: Vec<PathBuf>,
+    /// The stages the runner knows the declarations of (their binaries are found here
+    /// like any other; see [`crate::wire`]).
+    pub known: &'static [reprise_stagekit::wiring::Wiring],
 }
 
 impl BinDirs {
@@ -27,7 +30,7 @@ impl BinDirs {
         let env_dir = std::env::var_os("REPRISE_BIN_DIR").filter(|v| !v.is_empty()).map(PathBuf::from);
         let exe_dir = std::env::current_exe().ok().and_then(|exe| exe.parent().map(Path::to_path_buf));
         let path = std::env::var_os("PATH").map(|p| std::env::split_paths(&p).collect()).unwrap_or_default();
-        Self { env_dir, exe_dir, path }
+        Self { env_dir, exe_dir, path, known: &[] }
     }
 
     fn candidates(&self) -> impl Iterator<Item = &PathBuf> {
@@ -94,7 +97,8 @@ mod tests {
             std::fs::create_dir(&dir).unwrap();
             dir
         });
-        let dirs = BinDirs { env_dir: Some(env.clone()), exe_dir: Some(exe_dir.clone()), path: vec![path.clone()] };
+        let dirs =
+            BinDirs { env_dir: Some(env.clone()), exe_dir: Some(exe_dir.clone()), path: vec![path.clone()], known: &[] };
         let spec = BinSpec::Name("reprise-x".into());
         let err = locate(&spec, &dirs).unwrap_err();
         assert!(err.contains("$REPRISE_BIN_DIR") && err.contains("next to reprise") && err.contains("$PATH"), "{err}");

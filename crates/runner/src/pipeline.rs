@@ -11,9 +11,10 @@ use serde::Deserialize;
 use crate::error::{Error, Result};
 use crate::params::{ParamValue, Params};
 use crate::paths::ArtifactPath;
+use reprise_stagekit::wiring::Wiring;
 
 const TOP_KEYS: &[&str] = &["pipeline", "stage"];
-const HEADER_KEYS: &[&str] = &["name", "artifacts", "stage_identity"];
+const HEADER_KEYS: &[&str] = &["name", "artifacts", "reports", "stage_identity"];
 const STAGE_KEYS: &[&str] = &["bin", "inputs", "outputs", "after", "params", "allow_overwrite"];
 /// Flags the runner itself passes, or that every clap binary owns.
 const RESERVED: &[&str] = &["check", "help", "version"];
@@ -24,6 +25,7 @@ const RESERVED: &[&str] = &["check", "help", "version"];
 struct HeaderDef {
     name: String,
     artifacts: Option<String>,
+    reports: Option<String>,
     stage_identity: Option<StageIdentity>,
 }
 
@@ -44,7 +46,7 @@ pub enum StageIdentity {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct StageDef {
-    bin: String,
+    bin: Option<String>,
     #[serde(default)]
     inputs: toml::Table,
     #[serde(default)]
@@ -117,18 +119,30 @@ pub struct Pipeline {
 }
 
 impl Pipeline {
-    /// Reads and validates the pipeline file at `path`.
+    /// Reads and validates the pipeline file at `path`, with no stage declarations (every
+    /// input and output given in the file).
     pub fn load(path: &Path) -> Result<Self> {
+        Self::load_wired(path, &[])
+    }
+
+    /// Reads and validates the pipeline file at `path`, filling in what the stages declared
+    /// in `known` leave out ([`crate::wire`]).
+    pub fn load_wired(path: &Path, known: &[Wiring]) -> Result<Self> {
         let text =
             std::fs::read_to_string(path).map_err(|source| Error::PipelineRead { path: path.to_path_buf(), source })?;
         let abs =
             std::path::absolute(path).map_err(|source| Error::PipelineRead { path: path.to_path_buf(), source })?;
         let dir = crate::paths::normalize(abs.parent().unwrap_or(Path::new("/")));
-        Self::parse(&text, &path.display().to_string(), &dir)
+        Self::parse_wired(&text, &path.display().to_string(), &dir, known)
     }
 
     /// Validates pipeline text; `file` names it in messages, `dir` is its absolute directory.
     pub fn parse(text: &str, file: &str, dir: &Path) -> Result<Self> {
+        Self::parse_wired(text, file, dir, &[])
+    }
+
+    /// As [`Pipeline::parse`], wiring the stages declared in `known`.
+    pub fn parse_wired(text: &str, file: &str, dir: &Path, known: &[Wiring]) -> Result<Self> {
         let ctx = Ctx { file };
         let top: toml::Table = toml::from_str(text)
             .map_err(|e| Error::PipelineSyntax { file: file.into(), message: e.to_string().trim_end().to_string() })?;
@@ -147,8 +161,23 @@ impl Pipeline {
             Some(toml::Value::Table(t)) => t,
             Some(_) => return Err(ctx.invalid("`stage`", "must be a table of `[stage.<name>]` tables")),
         };
-        let stages =
-            stage_tables.iter().map(|(name, value)| ctx.stage(dir, name, value)).collect::<Result<Vec<_>>>()?;
+        let mut stages = stage_tables
+            .iter()
+            .map(|(name, value)| ctx.stage(dir, name, value, known))
+            .collect::<Result<Vec<_>>>()?;
+        let wirings: Vec<Option<&Wiring>> = stages.iter().map(|s| crate::wire::find(known, &s.bin)).collect();
+        let places = crate::wire::Places {
+            dir,
+            artifacts: &artifacts,
+            reports: &header.reports.clone().unwrap_or_else(|| format!("reports/{}", header.name)),
+            name: &header.name,
+            lock: crate::paths::normalize(Path::new(&format!("{artifacts}/reprise.lock"))).to_string_lossy().replace('\\', "/"),
+        };
+        crate::wire::outputs(&mut stages, &wirings, &places);
+        crate::wire::inputs(&mut stages, &wirings, file)?;
+        for stage in &stages {
+            ctx.check_flags(stage)?;
+        }
 
         let pipeline = Self {
             file: file.into(),
@@ -247,19 +276,27 @@ impl Ctx<'_> {
         }
     }
 
-    fn stage(&self, dir: &Path, name: &str, value: &toml::Value) -> Result<Stage> {
+    fn stage(&self, dir: &Path, name: &str, value: &toml::Value, known: &[Wiring]) -> Result<Stage> {
         self.name("stage", name)?;
         let context = format!("stage `{name}`");
         let table = value.as_table().ok_or_else(|| self.invalid(&context, "must be a table"))?;
         self.known_keys(&context, table, STAGE_KEYS)?;
         let def: StageDef = value.clone().try_into().map_err(|e| self.invalid(&context, e))?;
 
-        let bin = if def.bin.contains('/') {
-            BinSpec::Path(ArtifactPath::new(dir, &def.bin))
-        } else if def.bin.is_empty() {
+        let declared = match def.bin {
+            Some(bin) => bin,
+            None => known.iter().find(|w| w.stage == name).map(|w| w.bin.to_string()).ok_or_else(|| Error::NoBin {
+                file: self.file.into(),
+                stage: name.into(),
+                known: known.iter().map(|w| format!("`{}`", w.stage)).collect::<Vec<_>>().join(", "),
+            })?,
+        };
+        let bin = if declared.contains('/') {
+            BinSpec::Path(ArtifactPath::new(dir, &declared))
+        } else if declared.is_empty() {
             return Err(self.invalid(&context, "`bin` is empty"));
         } else {
-            BinSpec::Name(def.bin)
+            BinSpec::Name(declared)
         };
         let inputs = self.paths(dir, name, "input", &def.inputs)?;
         let outputs = self.paths(dir, name, "output", &def.outputs)?;
@@ -274,7 +311,12 @@ impl Ctx<'_> {
             })?;
             params.push((param.clone(), value));
         }
-        if let Some(unknown) = def.allow_overwrite.iter().find(|o| !outputs.iter().any(|(n, _)| n == *o)) {
+        let declared_outputs = crate::wire::find(known, &bin).map_or(&[][..], |w| w.outputs);
+        if let Some(unknown) = def
+            .allow_overwrite
+            .iter()
+            .find(|o| !outputs.iter().any(|(n, _)| n == *o) && !declared_outputs.iter().any(|d| d.role == o.as_str()))
+        {
             return Err(self.invalid(&context, format!("`allow_overwrite` names `{unknown}`, which is not an output")));
         }
         let stage = Stage {
@@ -286,7 +328,6 @@ impl Ctx<'_> {
             params,
             allow_overwrite: def.allow_overwrite,
         };
-        self.check_flags(&stage)?;
         Ok(stage)
     }
 

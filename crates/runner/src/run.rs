@@ -19,7 +19,7 @@ use crate::pipeline::{Pipeline, Stage};
 /// Runs the pipeline; progress goes to `log` (the runner's stderr).
 pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
     let started = Instant::now();
-    let (pipeline, dag) = crate::load(&args.pipeline.pipeline)?;
+    let (pipeline, dag) = crate::load(&args.pipeline.pipeline, dirs.known)?;
     let selected = match &args.to {
         Some(to) => dag.with_ancestors(pipeline.index_of(to)?),
         None => (0..pipeline.stages.len()).collect(),

@@ -13,7 +13,7 @@ use crate::pipeline::Pipeline;
 
 /// Prints the status of every stage (in run order) to `out`, warnings to `log`.
 pub fn status(pipeline_file: &std::path::Path, dirs: &BinDirs, out: &mut dyn Write, log: &mut dyn Write) -> Result<()> {
-    let (pipeline, dag) = crate::load(pipeline_file)?;
+    let (pipeline, dag) = crate::load(pipeline_file, dirs.known)?;
     let (lock, warning) = LockFile::load(&pipeline.lock_path(), &pipeline.name);
     if let Some(warning) = warning {
         let _ = writeln!(log, "reprise: warning: {warning}");

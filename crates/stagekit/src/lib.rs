@@ -10,6 +10,7 @@ pub mod lifetime;
 pub mod panic;
 pub mod progress;
 pub mod rig;
+pub mod wiring;
 
 pub use error::{StageError, StageResult};
 

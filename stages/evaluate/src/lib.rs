@@ -504,3 +504,45 @@ fn write_metrics(path: &Path, m: &[Metric], provenance: &reprise_artifact::Prove
     reprise_artifact::table::write(path, METRICS, cols, provenance, &[])?;
     Ok(())
 }
+
+/// What the stage reads and writes, for the runner's wiring by artifact
+/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
+pub const WIRING: reprise_stagekit::wiring::Wiring = {
+    use reprise_stagekit::wiring;
+    wiring::Wiring {
+        stage: "evaluate",
+        bin: "reprise-evaluate",
+        inputs: &[
+        wiring::required("labeled_frames", "labeled_frames.parquet"),
+        wiring::required("controls", "controls.parquet"),
+        wiring::required("scales", "scales.parquet"),
+        wiring::required("requests", "transition_requests.parquet"),
+        wiring::required("reprise_answers", "answers_reprise.parquet"),
+        wiring::required("reprise_curves", "transitions_reprise.parquet"),
+        wiring::required("reprise_reseeded", "transitions_reprise_reseeded.parquet"),
+        wiring::required("baseline_answers", "answers_baseline.parquet"),
+        wiring::required("baseline_curves", "transitions_baseline.parquet"),
+        wiring::required("baseline_reseeded", "transitions_baseline_reseeded.parquet"),
+        wiring::optional("mm_answers", "answers_motion_matching.parquet"),
+        wiring::optional("mm_curves", "transitions_motion_matching.parquet"),
+        wiring::optional("crossfade_answers", "answers_crossfade.parquet"),
+        wiring::optional("crossfade_curves", "transitions_crossfade.parquet"),
+        wiring::required("bridges", "bridges.parquet"),
+        wiring::required("mg_nodes", "mg_nodes.parquet"),
+        wiring::required("mg_edges", "mg_edges.parquet"),
+        wiring::required("gplvm_fits", "gplvm_fits.parquet"),
+        wiring::optional("gplvm_trace", "gplvm_trace.parquet"),
+        wiring::required("pca_errors", "pca_errors.parquet"),
+        wiring::required("latents", "gplvm_latents.parquet"),
+        wiring::required("gplvm_models", "gplvm_models.parquet"),
+        wiring::required("pca_models", "pca_models.parquet"),
+        wiring::required("curves", "curves.parquet"),
+        ],
+        outputs: &[
+        wiring::report("metrics", "metrics.parquet"),
+        wiring::report("report", "report.md"),
+        wiring::report("html", "index.html"),
+        ],
+        derived: &[("name", wiring::Derived::PipelineName), ("lock", wiring::Derived::LockFile)],
+    }
+};

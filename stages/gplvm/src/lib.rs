@@ -545,3 +545,27 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
     gplvm::write_fits(&args.fits, &summaries, &provenance)?;
     Ok(Some(summaries))
 }
+
+/// What the stage reads and writes, for the runner's wiring by artifact
+/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
+pub const WIRING: reprise_stagekit::wiring::Wiring = {
+    use reprise_stagekit::wiring;
+    wiring::Wiring {
+        stage: "gplvm",
+        bin: "reprise-gplvm",
+        inputs: &[
+        wiring::required("coords", "pca_coords.parquet"),
+        wiring::required("labeled_frames", "labeled_frames.parquet"),
+        wiring::optional("pca_models", "pca_models.parquet"),
+        wiring::optional("scales", "scales.parquet"),
+        wiring::optional("controls", "controls.parquet"),
+        ],
+        outputs: &[
+        wiring::artifact("latents", "gplvm_latents.parquet"),
+        wiring::artifact("models", "gplvm_models.parquet"),
+        wiring::artifact("trace", "gplvm_trace.parquet"),
+        wiring::artifact("fits", "gplvm_fits.parquet"),
+        ],
+        derived: &[],
+    }
+};

@@ -289,5 +289,27 @@ fn from_table(args: &Args, path: &std::path::Path) -> StageResult<(Frames, Contr
     Ok((frames, Controls { controls, rig }, clips))
 }
 
+
+/// What the stage reads and writes, for the runner's wiring by artifact
+/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
+pub const WIRING: reprise_stagekit::wiring::Wiring = {
+    use reprise_stagekit::wiring;
+    wiring::Wiring {
+        stage: "ingest",
+        bin: "reprise-ingest",
+        inputs: &[
+        wiring::optional_source("curves", "a curve table (CSV or Parquet)"),
+        wiring::optional_source("gltf", "a glTF character (.glb/.gltf)"),
+        wiring::optional_source("bvh", "a BVH take"),
+        ],
+        outputs: &[
+        wiring::artifact("frames", "frames.parquet"),
+        wiring::artifact("controls", "controls.parquet"),
+        wiring::artifact("clips", "clips.parquet"),
+        ],
+        derived: &[],
+    }
+};
+
 #[cfg(test)]
 mod tests;

@@ -246,6 +246,27 @@ fn labeled_frames(frames: &Frames, segments: &[Segment], rows: &[Vec<usize>], ma
     LabeledFrames { segment_id, label, frames: out, masked_controls: masked }
 }
 
+
+/// What the stage reads and writes, for the runner's wiring by artifact
+/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
+pub const WIRING: reprise_stagekit::wiring::Wiring = {
+    use reprise_stagekit::wiring;
+    wiring::Wiring {
+        stage: "label",
+        bin: "reprise-label",
+        inputs: &[
+        wiring::required("frames", "frames.parquet"),
+        wiring::optional("controls", "controls.parquet"),
+        wiring::source("labels", "a labels file (TOML or CSV)"),
+        ],
+        outputs: &[
+        wiring::artifact("segments", "segments.parquet"),
+        wiring::artifact("labeled_frames", "labeled_frames.parquet"),
+        ],
+        derived: &[],
+    }
+};
+
 #[cfg(test)]
 mod tests;
 

@@ -259,3 +259,22 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         threshold,
     }))
 }
+
+/// What the stage reads and writes, for the runner's wiring by artifact
+/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
+pub const WIRING: reprise_stagekit::wiring::Wiring = {
+    use reprise_stagekit::wiring;
+    wiring::Wiring {
+        stage: "motion-graph",
+        bin: "reprise-motion-graph",
+        inputs: &[
+        wiring::required("labeled_frames", "labeled_frames.parquet"),
+        wiring::required("scales", "scales.parquet"),
+        ],
+        outputs: &[
+        wiring::artifact("nodes", "mg_nodes.parquet"),
+        wiring::artifact("edges", "mg_edges.parquet"),
+        ],
+        derived: &[],
+    }
+};

@@ -270,3 +270,24 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     pca::write_errors(&args.errors, &error_rows, &provenance)?;
     Ok(Some(Summary { labels, errors: error_rows }))
 }
+
+/// What the stage reads and writes, for the runner's wiring by artifact
+/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
+pub const WIRING: reprise_stagekit::wiring::Wiring = {
+    use reprise_stagekit::wiring;
+    wiring::Wiring {
+        stage: "pca",
+        bin: "reprise-pca",
+        inputs: &[
+        wiring::required("labeled_frames", "labeled_frames.parquet"),
+        wiring::required("scales", "scales.parquet"),
+        wiring::required("controls", "controls.parquet"),
+        ],
+        outputs: &[
+        wiring::artifact("models", "pca_models.parquet"),
+        wiring::artifact("coords", "pca_coords.parquet"),
+        wiring::artifact("errors", "pca_errors.parquet"),
+        ],
+        derived: &[],
+    }
+};

@@ -197,3 +197,21 @@ fn label_weights(
     bar.inc((mean.len() - varying.len()) as u64);
     Ok(fits)
 }
+
+/// What the stage reads and writes, for the runner's wiring by artifact
+/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
+pub const WIRING: reprise_stagekit::wiring::Wiring = {
+    use reprise_stagekit::wiring;
+    wiring::Wiring {
+        stage: "scale",
+        bin: "reprise-scale",
+        inputs: &[
+        wiring::required("labeled_frames", "labeled_frames.parquet"),
+        wiring::required("controls", "controls.parquet"),
+        ],
+        outputs: &[
+        wiring::artifact("scales", "scales.parquet"),
+        ],
+        derived: &[],
+    }
+};

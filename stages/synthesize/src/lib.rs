@@ -336,3 +336,25 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<ScriptSummary>>> {
     curves::write(&args.curves, &curves, &provenance)?;
     Ok(Some(summaries))
 }
+
+/// What the stage reads and writes, for the runner's wiring by artifact
+/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
+pub const WIRING: reprise_stagekit::wiring::Wiring = {
+    use reprise_stagekit::wiring;
+    wiring::Wiring {
+        stage: "synthesize",
+        bin: "reprise-synthesize",
+        inputs: &[
+        wiring::required("gplvm_models", "gplvm_models.parquet"),
+        wiring::required("latents", "gplvm_latents.parquet"),
+        wiring::required("pca_models", "pca_models.parquet"),
+        wiring::required("scales", "scales.parquet"),
+        wiring::required("bridges", "bridges.parquet"),
+        wiring::source("scripts", "a scripts file (TOML)"),
+        ],
+        outputs: &[
+        wiring::artifact("curves", "curves.parquet"),
+        ],
+        derived: &[],
+    }
+};
