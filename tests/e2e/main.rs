@@ -8,6 +8,7 @@ mod bvh_pipeline;
 mod default_pipeline;
 mod external_rig;
 mod gplvm_stage;
+mod init;
 mod lifetime;
 mod pipeline_errors;
 mod provenance_checks;

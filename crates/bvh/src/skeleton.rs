@@ -151,6 +151,40 @@ impl Bvh {
         }
     }
 
+    /// The first way `other`'s skeleton differs from this one's, or `None` when both have
+    /// the same joints and end sites (names, parents, channels in order) and the same
+    /// OFFSETs (within 1e-6 of the larger bone; an axis a position channel sets is not
+    /// compared). Takes of one skeleton can share one rig; different skeletons cannot.
+    pub fn skeleton_difference(&self, other: &Bvh) -> Option<String> {
+        if self.nodes.len() != other.nodes.len() {
+            return Some(format!("{} joints and end sites, not {}", other.nodes.len(), self.nodes.len()));
+        }
+        let scale = self.nodes.iter().flat_map(|n| n.offset).fold(0.0_f64, |m, v| m.max(v.abs())).max(1.0);
+        for (a, b) in self.nodes.iter().zip(&other.nodes) {
+            let at = |what: String| Some(format!("line {}: {what}", b.line));
+            if a.name != b.name || a.end_site != b.end_site {
+                return at(format!("`{}` where the first file has `{}`", b.name, a.name));
+            }
+            if a.parent != b.parent {
+                return at(format!("`{}` hangs from another parent", b.name));
+            }
+            if a.channels != b.channels {
+                return at(format!("`{}` has channels {:?}, not {:?}", b.name, b.channels, a.channels));
+            }
+            let set = |axis: usize| a.channels.iter().any(|c| !c.is_rotation() && c.axis() == axis);
+            if let Some(axis) = (0..3).find(|&k| !set(k) && (a.offset[k] - b.offset[k]).abs() > 1e-6 * scale) {
+                return at(format!(
+                    "`{}` has OFFSET {:?}, not {:?} ({} differs): another skeleton",
+                    b.name,
+                    b.offset,
+                    a.offset,
+                    ["X", "Y", "Z"][axis]
+                ));
+            }
+        }
+        None
+    }
+
     /// The rig controls, in hierarchy order: per joint, `.tx .ty .tz` if it has any
     /// position channel, then `.rx .ry .rz` if it has any rotation channel.
     pub fn controls(&self) -> Vec<ControlSpec> {

@@ -307,3 +307,26 @@ fn a_skeleton_without_channels_has_no_controls() {
     rig.evaluate(&[], &mut out);
     assert_eq!(out, [1.0, 2.0, 3.0, 1.0, 3.0, 3.0]);
 }
+
+/// Takes of one skeleton compare equal; another joint name, channel order or bone
+/// length is named with its line. A position channel's axis is not compared.
+#[test]
+fn skeleton_difference_names_the_first_mismatch() {
+    let base =
+        parse("a.bvh", &one_joint("6 Xposition Yposition Zposition Zrotation Xrotation Yrotation", "0 0 0 0 0 0"))
+            .unwrap();
+    let moved = one_joint("6 Xposition Yposition Zposition Zrotation Xrotation Yrotation", "5 5 5 1 2 3")
+        .replace("OFFSET 0 0 0", "OFFSET 9 9 9");
+    assert_eq!(base.skeleton_difference(&parse("b.bvh", &moved).unwrap()), None, "same skeleton, other motion");
+    let order = one_joint("6 Xposition Yposition Zposition Xrotation Yrotation Zrotation", "0 0 0 0 0 0");
+    let why = base.skeleton_difference(&parse("c.bvh", &order).unwrap()).unwrap();
+    assert!(why.contains("line 2") && why.contains("channels"), "{why}");
+    let longer = one_joint("6 Xposition Yposition Zposition Zrotation Xrotation Yrotation", "0 0 0 0 0 0")
+        .replace("OFFSET 1 2 3", "OFFSET 1 2 4");
+    let why = base.skeleton_difference(&parse("d.bvh", &longer).unwrap()).unwrap();
+    assert!(why.contains("J.end") && why.contains("Z differs"), "{why}");
+    let renamed = one_joint("6 Xposition Yposition Zposition Zrotation Xrotation Yrotation", "0 0 0 0 0 0")
+        .replace("ROOT J", "ROOT K");
+    let why = base.skeleton_difference(&parse("e.bvh", &renamed).unwrap()).unwrap();
+    assert!(why.contains("`K` where the first file has `J`"), "{why}");
+}

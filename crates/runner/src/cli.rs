@@ -30,6 +30,45 @@ pub enum Command {
     Dag(DagArgs),
     /// Summarise a Parquet artifact: size, rows, schema, provenance metadata, first rows.
     Inspect(InspectArgs),
+    /// Write a working pipeline for a new character: `pipeline.toml`, a labels file with
+    /// one label per clip (unless --labels) and a demo script, checked by ingesting and
+    /// labeling the source; then `reprise run` runs it to the report.
+    Init(InitArgs),
+}
+
+/// `reprise init`.
+#[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("source").required(true).args(["gltf", "bvh", "curves"])))]
+pub struct InitArgs {
+    /// The file to write; the labels file and `scripts/demo.toml` go beside it.
+    #[command(flatten)]
+    pub pipeline: PipelineArg,
+    /// Source: a glTF 2.0 character (.glb/.gltf); each named animation is a clip.
+    #[arg(long, value_name = "FILE")]
+    pub gltf: Option<PathBuf>,
+    /// Source: BVH takes of one skeleton, one clip per file: files, or a quoted glob
+    /// (`'takes/*.bvh'`, wildcards in the file name only). Several values are a list.
+    #[arg(long, value_name = "FILE|GLOB", num_args = 1..)]
+    pub bvh: Vec<String>,
+    /// Source: a curve table (.csv/.parquet); its `clip` column names the clips. Needs
+    /// --external-rig.
+    #[arg(long, value_name = "FILE")]
+    pub curves: Option<PathBuf>,
+    /// With --curves: the rig evaluator command (program and arguments, comma-separated).
+    #[arg(long, value_name = "CMD", value_delimiter = ',', requires = "curves")]
+    pub external_rig: Vec<String>,
+    /// Your labels file (TOML or CSV); without it init writes `labels.toml`, one label per clip.
+    #[arg(long, value_name = "FILE")]
+    pub labels: Option<PathBuf>,
+    /// The pipeline's name (artifacts/<name>, reports/<name>); default: from the source's file name.
+    #[arg(long)]
+    pub name: Option<String>,
+    /// The pipeline's frame rate: every clip is resampled to it.
+    #[arg(long, default_value_t = 24.0)]
+    pub fps: f64,
+    /// Replace the files init writes if they exist.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// `--pipeline`.

@@ -68,6 +68,22 @@ pub enum Error {
     #[error("`{}` has no column `{column}` (columns: {available})", path.display())]
     InspectColumn { path: PathBuf, column: String, available: String },
 
+    /// `reprise init` cannot make a working pipeline from what it was given; says why.
+    #[error("init: {0}")]
+    Init(String),
+
+    /// A stage `reprise init` ran on the source to check it failed; `output` is what it said.
+    #[error("init: checking the source, stage `{stage}` failed ({what}):\n{output}")]
+    InitProbe { stage: String, what: String, output: String, code: i32 },
+
+    /// `reprise init` would replace a file.
+    #[error("init: `{}` exists; refusing to overwrite it (give --force to replace it)", path.display())]
+    InitExists { path: PathBuf },
+
+    /// An input's glob names no file, or cannot be read.
+    #[error("{file}: stage `{stage}`: input `{input}`: glob `{pattern}`: {why}")]
+    InputGlob { file: String, stage: String, input: String, pattern: String, why: String },
+
     /// `inspect` could not decode a Parquet file's rows.
     #[error("cannot read rows of `{}`: {message}", path.display())]
     InspectRows { path: PathBuf, message: String },
@@ -173,6 +189,9 @@ impl Error {
             | Self::InvalidName { .. }
             | Self::InvalidValue { .. }
             | Self::InputParamClash { .. }
+            | Self::InputGlob { .. }
+            | Self::Init(_)
+            | Self::InitExists { .. }
             | Self::InspectColumn { .. }
             | Self::NestedParam { .. }
             | Self::NoStages { .. }
@@ -194,7 +213,7 @@ impl Error {
             }
             Self::AlreadyRunning { .. } | Self::LockWrite { .. } | Self::OutputNotWritten { .. } => exit::FAILURE,
             Self::Spawn { .. } | Self::StageBinaryMissing { .. } | Self::StageKilled { .. } => exit::STAGE_CRASHED,
-            Self::CheckFailed { code, .. } | Self::StageFailed { code, .. } => *code,
+            Self::CheckFailed { code, .. } | Self::StageFailed { code, .. } | Self::InitProbe { code, .. } => *code,
             Self::Interrupted { signal, .. } => exit::INTERRUPTED_BASE + signal,
         }
     }

@@ -1,7 +1,8 @@
 //! Running a stage as a child process:
 //! `<bin> --<input> <path>… --<output> <path>… --<param> <value>… [--check]`.
 //!
-//! Names have `_` replaced by `-`. Paths are passed as declared (normalised); the child runs
+//! Names have `_` replaced by `-`; the files of an input given as a list or a glob are
+//! passed one flag each (`--bvh a.bvh --bvh b.bvh`). Paths are passed as declared (normalised); the child runs
 //! in the pipeline file's directory, so they resolve against it. A value that starts with
 //! `-` is passed as `--name=value` so the stage's parser cannot take it for a flag. The
 //! child inherits stdout and stderr (its progress bars and messages show directly) and
@@ -88,7 +89,10 @@ pub fn stage_args(stage: &Stage) -> Vec<OsString> {
             args.push(value.into());
         }
     };
-    for (name, path) in stage.inputs.iter().chain(&stage.outputs) {
+    for (name, path) in &stage.inputs {
+        push(crate::pipeline::input_role(name), path.rel.clone());
+    }
+    for (name, path) in &stage.outputs {
         push(name, path.rel.clone());
     }
     for (name, value) in &stage.params {
@@ -101,19 +105,28 @@ pub fn stage_args(stage: &Stage) -> Vec<OsString> {
 /// (`reprise_stagekit::STATS_ENV`).
 pub const STATS_ENV: &str = "REPRISE_STATS_FILE";
 
-/// Runs the stage binary `bin` in `dir` and waits for it; `check` appends `--check`;
-/// `stats` asks the stage to write its statistics (peak memory) there. A signal recorded
-/// by `interrupt` stops the stage (see the module docs).
-pub fn invoke(
-    stage: &Stage,
-    bin: &Path,
-    dir: &Path,
-    check: bool,
-    stats: Option<&Path>,
-    interrupt: &Interrupt,
-) -> Result<Outcome> {
+/// How a stage is invoked besides its flags.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Call<'a> {
+    /// Append `--check` (validate the flags only).
+    pub check: bool,
+    /// Ask the stage to write its statistics (peak memory) to this file.
+    pub stats: Option<&'a Path>,
+    /// Send the stage's stdout and stderr to this file instead of the runner's.
+    pub log: Option<&'a Path>,
+}
+
+/// Runs the stage binary `bin` in `dir` as `call` says and waits for it. A signal
+/// recorded by `interrupt` stops the stage (see the module docs).
+pub fn invoke(stage: &Stage, bin: &Path, dir: &Path, call: Call<'_>, interrupt: &Interrupt) -> Result<Outcome> {
+    let Call { check, stats, log } = call;
     let mut command = Command::new(bin);
     command.args(stage_args(stage)).current_dir(dir).stdin(Stdio::null());
+    if let Some(log) = log {
+        let file = std::fs::File::create(log).map_err(|source| Error::Io { path: log.to_path_buf(), source })?;
+        let copy = file.try_clone().map_err(|source| Error::Io { path: log.to_path_buf(), source })?;
+        command.stdout(file).stderr(copy);
+    }
     command.env(reprise_stagekit::lifetime::RUNNER_PID_ENV, std::process::id().to_string());
     #[cfg(unix)]
     {

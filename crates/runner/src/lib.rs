@@ -20,7 +20,7 @@
 //! | [`lock`] | the lock file |
 //! | [`cache`] | freshness and the reasons a stage is stale |
 //! | [`exec`] | invoking a stage process |
-//! | [`run`], [`status`], [`dag_view`], [`inspect`] | the subcommands |
+//! | [`run`], [`status`], [`dag_view`], [`inspect`], [`init`] | the subcommands |
 //! | [`error`] | the error type and its exit codes |
 //!
 //! There is no global state: [`main_with_args`] can be called any number of times in one
@@ -35,6 +35,7 @@ pub mod error;
 pub mod exec;
 pub mod guard;
 pub mod hash;
+pub mod init;
 pub mod inspect;
 pub mod key;
 pub mod locate;
@@ -108,6 +109,7 @@ pub fn main_with_io(
         Command::Inspect(args) => inspect::inspect(args).map(|text| {
             let _ = write!(stdout, "{text}");
         }),
+        Command::Init(args) => init::init(args, &dirs, stdout),
     };
     let _ = stdout.flush();
     match result {
@@ -141,7 +143,7 @@ mod tests {
     fn help_and_usage_errors() {
         let (code, out, _) = call(&["reprise", "--help"]);
         assert_eq!(code, exit::OK);
-        for sub in ["run", "status", "dag", "inspect"] {
+        for sub in ["run", "status", "dag", "inspect", "init"] {
             assert!(out.contains(sub), "{out}");
         }
         let (code, out, _) = call(&["reprise", "run", "--help"]);

@@ -97,8 +97,12 @@ mod tests {
             std::fs::create_dir(&dir).unwrap();
             dir
         });
-        let dirs =
-            BinDirs { env_dir: Some(env.clone()), exe_dir: Some(exe_dir.clone()), path: vec![path.clone()], known: &[] };
+        let dirs = BinDirs {
+            env_dir: Some(env.clone()),
+            exe_dir: Some(exe_dir.clone()),
+            path: vec![path.clone()],
+            known: &[],
+        };
         let spec = BinSpec::Name("reprise-x".into());
         let err = locate(&spec, &dirs).unwrap_err();
         assert!(err.contains("$REPRISE_BIN_DIR") && err.contains("next to reprise") && err.contains("$PATH"), "{err}");

@@ -43,6 +43,71 @@ pub(crate) fn normalize(path: &Path) -> PathBuf {
     out
 }
 
+/// `path` made absolute against `base` (an absolute directory), normalised.
+pub(crate) fn absolute(base: &Path, path: &Path) -> PathBuf {
+    normalize(&base.join(path))
+}
+
+/// `target` relative to the directory `from` (both absolute and normalised), `/`-separated,
+/// as a pipeline file names it: `../shared/x.glb`. `target` itself when they share no
+/// root; `.` when they are the same.
+pub(crate) fn relative(from: &Path, target: &Path) -> String {
+    let (a, b): (Vec<Component>, Vec<Component>) = (from.components().collect(), target.components().collect());
+    // Sharing only the root (or nothing): the absolute path says more than `../../..`.
+    if a.first() != b.first() || a.iter().zip(&b).take_while(|(x, y)| x == y).count() < 2 {
+        return target.to_string_lossy().replace('\\', "/");
+    }
+    let common = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    let mut out = PathBuf::new();
+    for _ in common..a.len() {
+        out.push("..");
+    }
+    for part in &b[common..] {
+        out.push(part.as_os_str());
+    }
+    let text = out.to_string_lossy().replace('\\', "/");
+    if text.is_empty() {
+        ".".into()
+    } else {
+        text
+    }
+}
+
+/// Whether a declared input is a glob: it holds `*`, `?`, `[` or `{`.
+pub(crate) fn is_glob(declared: &str) -> bool {
+    declared.contains(['*', '?', '[', '{'])
+}
+
+/// The files a glob names, relative to `dir` as the glob is (`takes/*.bvh` →
+/// `takes/a.bvh`, `takes/b.bvh`), sorted by name. Only the last component may hold
+/// wildcards; directories and hidden files (`.x`) are not matched. An error says why in
+/// words: a bad pattern, an unreadable directory, or no match.
+pub(crate) fn expand_glob(dir: &Path, declared: &str) -> Result<Vec<String>, String> {
+    let declared = declared.replace('\\', "/");
+    let (parent, pattern) = declared.rsplit_once('/').map_or(("", declared.as_str()), |(p, f)| (p, f));
+    if is_glob(parent) {
+        return Err("only the file name may hold wildcards, not the directories above it".into());
+    }
+    let matcher = globset::GlobBuilder::new(pattern)
+        .literal_separator(true)
+        .build()
+        .map_err(|e| format!("bad pattern: {e}"))?
+        .compile_matcher();
+    let folder = dir.join(if parent.is_empty() { "." } else { parent });
+    let entries = std::fs::read_dir(&folder).map_err(|e| format!("cannot list `{}`: {e}", folder.display()))?;
+    let mut names: Vec<String> = entries
+        .filter_map(|entry| entry.ok())
+        .filter(|entry| entry.path().is_file())
+        .filter_map(|entry| entry.file_name().to_str().map(str::to_string))
+        .filter(|name| !name.starts_with('.') && matcher.is_match(name))
+        .collect();
+    if names.is_empty() {
+        return Err(format!("no file in `{}` matches it", folder.display()));
+    }
+    names.sort();
+    Ok(names.into_iter().map(|n| if parent.is_empty() { n } else { format!("{parent}/{n}") }).collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -63,5 +128,31 @@ mod tests {
         let q = ArtifactPath::new(Path::new("/work/p"), "/data/y.csv");
         assert_eq!(q.rel, "/data/y.csv");
         assert_eq!(q.abs, PathBuf::from("/data/y.csv"));
+    }
+
+    #[test]
+    fn relative_paths_climb_to_the_common_directory() {
+        assert_eq!(relative(Path::new("/w/a/b"), Path::new("/w/shared/x.glb")), "../../shared/x.glb");
+        assert_eq!(relative(Path::new("/w/a"), Path::new("/w/a/labels.toml")), "labels.toml");
+        assert_eq!(relative(Path::new("/w/a"), Path::new("/w/a")), ".");
+        assert_eq!(relative(Path::new("/tmp/p"), Path::new("/w/x.glb")), "/w/x.glb", "only the root in common");
+        assert_eq!(absolute(Path::new("/w/a"), Path::new("../b/./c")), PathBuf::from("/w/b/c"));
+        assert_eq!(absolute(Path::new("/w/a"), Path::new("/x")), PathBuf::from("/x"));
+    }
+
+    #[test]
+    fn globs_name_the_files_of_one_directory_in_order() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(dir.path().join("takes/sub.bvh")).unwrap();
+        for f in ["takes/b.bvh", "takes/a.bvh", "takes/.hidden.bvh", "takes/c.txt"] {
+            std::fs::write(dir.path().join(f), "x").unwrap();
+        }
+        assert!(is_glob("takes/*.bvh") && is_glob("t/a?.bvh") && !is_glob("takes/a.bvh"));
+        assert_eq!(expand_glob(dir.path(), "takes/*.bvh").unwrap(), ["takes/a.bvh", "takes/b.bvh"]);
+        assert_eq!(expand_glob(&dir.path().join("takes"), "{a,c}.*").unwrap(), ["a.bvh", "c.txt"]);
+        assert!(expand_glob(dir.path(), "takes/*.fbx").unwrap_err().contains("no file in"));
+        assert!(expand_glob(dir.path(), "*/a.bvh").unwrap_err().contains("only the file name"));
+        assert!(expand_glob(dir.path(), "none/*.bvh").unwrap_err().contains("cannot list"));
+        assert!(expand_glob(dir.path(), "takes/[.bvh").unwrap_err().contains("bad pattern"));
     }
 }

@@ -86,7 +86,10 @@ pub struct Stage {
     pub name: String,
     /// The executable.
     pub bin: BinSpec,
-    /// Inputs in declaration order.
+    /// Inputs in declaration order. An input given as a list of files or a glob
+    /// (`inputs.bvh = ["a.bvh", "b.bvh"]`, `inputs.bvh = "takes/*.bvh"`) is one entry per
+    /// file, named `bvh[0]`, `bvh[1]`, … (see [`input_role`]), so the cache key, the lock
+    /// and `status` see every file.
     pub inputs: Vec<(String, ArtifactPath)>,
     /// Outputs in declaration order.
     pub outputs: Vec<(String, ArtifactPath)>,
@@ -161,17 +164,17 @@ impl Pipeline {
             Some(toml::Value::Table(t)) => t,
             Some(_) => return Err(ctx.invalid("`stage`", "must be a table of `[stage.<name>]` tables")),
         };
-        let mut stages = stage_tables
-            .iter()
-            .map(|(name, value)| ctx.stage(dir, name, value, known))
-            .collect::<Result<Vec<_>>>()?;
+        let mut stages =
+            stage_tables.iter().map(|(name, value)| ctx.stage(dir, name, value, known)).collect::<Result<Vec<_>>>()?;
         let wirings: Vec<Option<&Wiring>> = stages.iter().map(|s| crate::wire::find(known, &s.bin)).collect();
         let places = crate::wire::Places {
             dir,
             artifacts: &artifacts,
             reports: &header.reports.clone().unwrap_or_else(|| format!("reports/{}", header.name)),
             name: &header.name,
-            lock: crate::paths::normalize(Path::new(&format!("{artifacts}/reprise.lock"))).to_string_lossy().replace('\\', "/"),
+            lock: crate::paths::normalize(Path::new(&format!("{artifacts}/reprise.lock")))
+                .to_string_lossy()
+                .replace('\\', "/"),
         };
         crate::wire::outputs(&mut stages, &wirings, &places);
         crate::wire::inputs(&mut stages, &wirings, file)?;
@@ -298,7 +301,7 @@ impl Ctx<'_> {
         } else {
             BinSpec::Name(declared)
         };
-        let inputs = self.paths(dir, name, "input", &def.inputs)?;
+        let inputs = self.input_paths(dir, name, &def.inputs)?;
         let outputs = self.paths(dir, name, "output", &def.outputs)?;
         let mut params = Params::new();
         for (param, value) in &def.params {
@@ -347,10 +350,63 @@ impl Ctx<'_> {
             .collect()
     }
 
+    /// A stage's inputs: each a path, a glob (one entry per matching file, sorted) or a
+    /// list of paths and globs (one entry per file, in order).
+    fn input_paths(&self, dir: &Path, stage: &str, table: &toml::Table) -> Result<Vec<(String, ArtifactPath)>> {
+        let mut out = Vec::new();
+        for (name, value) in table {
+            self.name(&format!("stage `{stage}`: input"), name)?;
+            let bad = |found: &str| {
+                self.invalid(
+                    &format!("stage `{stage}`"),
+                    format!("input `{name}` must be a non-empty path string or a list of them, found {found}"),
+                )
+            };
+            let (declared, listed): (Vec<&str>, bool) = match value {
+                toml::Value::String(path) if !path.is_empty() => (vec![path.as_str()], false),
+                toml::Value::Array(items) if !items.is_empty() => {
+                    let paths = items.iter().map(|v| match v {
+                        toml::Value::String(p) if !p.is_empty() => Ok(p.as_str()),
+                        other => Err(bad(&format!("a list holding {}", describe(other)))),
+                    });
+                    (paths.collect::<Result<_>>()?, true)
+                }
+                other => return Err(bad(&describe(other))),
+            };
+            let mut files = Vec::new();
+            let mut globbed = false;
+            for path in declared {
+                if crate::paths::is_glob(path) {
+                    globbed = true;
+                    let matched = crate::paths::expand_glob(dir, path).map_err(|why| Error::InputGlob {
+                        file: self.file.into(),
+                        stage: stage.into(),
+                        input: name.clone(),
+                        pattern: path.into(),
+                        why,
+                    })?;
+                    files.extend(matched.iter().map(|m| ArtifactPath::new(dir, m)));
+                } else {
+                    files.push(ArtifactPath::new(dir, path));
+                }
+            }
+            if listed || globbed {
+                out.extend(files.into_iter().enumerate().map(|(i, path)| (format!("{name}[{i}]"), path)));
+            } else {
+                out.extend(files.into_iter().map(|path| (name.clone(), path)));
+            }
+        }
+        Ok(out)
+    }
+
     /// Every input, output and parameter becomes a `--flag`; no two may share one, and none
-    /// may take a flag the runner or clap owns.
+    /// may take a flag the runner or clap owns. The files of one input (a list or a glob)
+    /// share its flag.
     fn check_flags(&self, stage: &Stage) -> Result<()> {
-        let inputs = stage.inputs.iter().map(|(n, _)| ("input", n));
+        let mut roles: Vec<&str> = stage.inputs.iter().map(|(n, _)| input_role(n)).collect();
+        roles.dedup();
+        let roles: Vec<String> = roles.into_iter().map(str::to_string).collect();
+        let inputs = roles.iter().map(|n| ("input", n));
         let outputs = stage.outputs.iter().map(|(n, _)| ("output", n));
         let params = stage.params.iter().map(|(n, _)| ("parameter", n));
         let mut seen: HashMap<String, (&str, &String)> = HashMap::new();
@@ -380,6 +436,22 @@ impl Ctx<'_> {
             }
         }
         Ok(())
+    }
+}
+
+/// The input (the stage's flag) an entry of [`Stage::inputs`] belongs to: `bvh` for
+/// `bvh[2]`, the name itself otherwise.
+#[must_use]
+pub fn input_role(name: &str) -> &str {
+    name.split_once('[').map_or(name, |(role, _)| role)
+}
+
+/// A TOML value's type, for messages (`integer`, `table`, …; `empty string`, `empty list`).
+fn describe(value: &toml::Value) -> String {
+    match value {
+        toml::Value::String(s) if s.is_empty() => "an empty string".into(),
+        toml::Value::Array(a) if a.is_empty() => "an empty list".into(),
+        other => other.type_str().into(),
     }
 }
 
@@ -498,7 +570,7 @@ mod tests {
         assert!(err("[stage.a]\nbin = \"a\"\n").contains("missing `[pipeline]` table"));
         assert!(err("[pipeline]\n[stage.a]\nbin = \"a\"\n").contains("missing field `name`"));
         assert!(err("[pipeline]\nname = \"x\"\n").contains("no stages"));
-        assert!(err("[pipeline]\nname = \"x\"\n[stage.a]\ninputs = {}\n").contains("stage `a`: missing field `bin`"));
+        assert!(err("[pipeline]\nname = \"x\"\n[stage.a]\ninputs = {}\n").contains("stage `a` has no `bin`"));
     }
 
     #[test]
@@ -509,7 +581,7 @@ mod tests {
     #[test]
     fn wrong_types() {
         assert!(err("[pipeline]\nname = \"x\"\n[stage.a]\nbin = \"a\"\ninputs.f = 3\n")
-            .contains("stage `a`: input `f` must be a non-empty path string, found integer"));
+            .contains("stage `a`: input `f` must be a non-empty path string or a list of them, found integer"));
         assert!(err("[pipeline]\nname = \"x\"\n[stage.a]\nbin = \"a\"\nafter = \"b\"\n")
             .contains("stage `a`: invalid type"));
     }

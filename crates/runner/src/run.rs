@@ -146,7 +146,13 @@ fn check(
     let mut code = None;
     for &i in to_run {
         let stage = &pipeline.stages[i];
-        let (why, exit) = match exec::invoke(stage, &bins[&i].path, &pipeline.dir, true, None, interrupt)? {
+        let (why, exit) = match exec::invoke(
+            stage,
+            &bins[&i].path,
+            &pipeline.dir,
+            exec::Call { check: true, ..Default::default() },
+            interrupt,
+        )? {
             Outcome::Success => continue,
             Outcome::Interrupted(signal) => {
                 return Err(Error::Interrupted {
@@ -201,7 +207,13 @@ fn run_stage(
     let _ = std::fs::create_dir_all(&pipeline.artifacts.abs);
     let _ = std::fs::remove_file(&stats);
     let started = Instant::now();
-    let outcome = exec::invoke(stage, &bin.path, &pipeline.dir, false, Some(&stats), interrupt)?;
+    let outcome = exec::invoke(
+        stage,
+        &bin.path,
+        &pipeline.dir,
+        exec::Call { stats: Some(&stats), ..Default::default() },
+        interrupt,
+    )?;
     let seconds = started.elapsed().as_secs_f64();
     let peak_rss_mb = std::fs::read_to_string(&stats)
         .ok()

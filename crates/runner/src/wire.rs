@@ -92,7 +92,7 @@ pub fn inputs(stages: &mut [Stage], wirings: &[Option<&Wiring>], file: &str) -> 
     for (stage, w) in stages.iter_mut().zip(wirings) {
         let Some(w) = w else { continue };
         for input in w.inputs {
-            if stage.inputs.iter().any(|(n, _)| n == input.role) {
+            if stage.inputs.iter().any(|(n, _)| crate::pipeline::input_role(n) == input.role) {
                 continue;
             }
             let writers: Vec<&(String, String, ArtifactPath)> =
@@ -227,7 +227,10 @@ mod tests {
         assert!(e.contains("stages `make` and `again` both write `dough.parquet`"), "{e}");
         let e = parse("[pipeline]\nname = \"c\"\n[stage.mystery]\n").unwrap_err().to_string();
         assert!(e.contains("stage `mystery` has no `bin`") && e.contains("`make`, `bake`, `taste`"), "{e}");
-        assert_eq!(parse("[pipeline]\nname = \"c\"\n[stage.bake]\n").unwrap_err().code(), reprise_stagekit::exit::CONFIG);
+        assert_eq!(
+            parse("[pipeline]\nname = \"c\"\n[stage.bake]\n").unwrap_err().code(),
+            reprise_stagekit::exit::CONFIG
+        );
     }
 
     /// A stage without a declaration is wired to by its output's file name.

@@ -51,18 +51,63 @@ pub(crate) fn tables(
     (frames, table, clips)
 }
 
-/// A BVH file: one clip named by the file stem; the skeleton is the rig.
+/// BVH files of one skeleton: one clip per file, named by its stem; the first file's
+/// skeleton is the rig (`blake3` is that file's hash). Files whose skeletons differ, or two
+/// files of one stem, are refused by name; `max_frames` bounds all clips together.
 pub(crate) fn bvh(
-    path: &std::path::Path,
+    paths: &[std::path::PathBuf],
     fps: f64,
     max_frames: usize,
     blake3: String,
 ) -> Result<(Frames, Controls, Vec<Clip>), String> {
-    let curves = reprise_bvh::ingest_limited(path, fps, max_frames).map_err(|e| e.to_string())?;
-    let clip =
-        ImportedClip { name: curves.clip, frames: curves.frames, source_fps: curves.source_fps, values: curves.values };
-    let source = path.display().to_string();
-    Ok(tables(fps, curves.controls, vec![clip], &source, RigRef::Bvh { path: source.clone(), blake3 }))
+    let mut clips: Vec<ImportedClip> = Vec::with_capacity(paths.len());
+    let mut controls: Vec<Control> = Vec::new();
+    let mut first: Option<reprise_bvh::Bvh> = None;
+    let mut budget = max_frames;
+    for path in paths {
+        let parsed = reprise_bvh::read(path).map_err(|e| e.to_string())?;
+        let stem = path.file_stem().map_or_else(|| parsed.file.clone(), |s| s.to_string_lossy().into_owned());
+        if let Some(other) = clips.iter().position(|c| c.name == stem) {
+            return Err(format!(
+                "{} and {}: two takes named `{stem}` (a clip is named by its file's stem); rename one",
+                paths[other].display(),
+                path.display()
+            ));
+        }
+        if let Some(why) = first.as_ref().and_then(|f| f.skeleton_difference(&parsed)) {
+            return Err(format!(
+                "{}: its skeleton differs from {}'s: {why}; one ingest reads takes of one skeleton",
+                path.display(),
+                paths[0].display()
+            ));
+        }
+        let curves = reprise_bvh::resample_limited(&parsed, &stem, fps, budget).map_err(|e| e.to_string())?;
+        budget -= curves.frames;
+        if controls.is_empty() {
+            controls = curves.controls;
+        } else {
+            for (c, new) in controls.iter_mut().zip(&curves.controls) {
+                c.min = c.min.min(new.min);
+                c.max = c.max.max(new.max);
+                c.animated |= new.animated;
+            }
+        }
+        clips.push(ImportedClip {
+            name: curves.clip,
+            frames: curves.frames,
+            source_fps: curves.source_fps,
+            values: curves.values,
+        });
+        first.get_or_insert(parsed);
+    }
+    let rig_path = paths.first().ok_or("no BVH file given")?.display().to_string();
+    let sources: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+    let (frames, table, mut clip_table) =
+        tables(fps, controls, clips, &sources[0], RigRef::Bvh { path: rig_path, blake3 });
+    for (row, source) in clip_table.iter_mut().zip(&sources) {
+        row.source.clone_from(source);
+    }
+    Ok((frames, table, clip_table))
 }
 
 /// A glTF file: one clip per named animation; its skins and morph targets are the rig.

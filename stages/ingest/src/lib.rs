@@ -3,7 +3,8 @@
 //!
 //! Sources: the built-in dragon-face generator (`--generate dragon-face`), or a curve
 //! table in CSV or Parquet (`--curves FILE`), wide (a column per control) or long
-//! (`clip, frame|time, control, value`), resampled to `--fps`.
+//! (`clip, frame|time, control, value`), a glTF character (`--gltf FILE`) or BVH takes of
+//! one skeleton (`--bvh FILE`, repeated), resampled to `--fps`.
 
 mod curves;
 mod dragon;
@@ -51,10 +52,11 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
     pub gltf: Option<PathBuf>,
-    /// Input: a BVH motion-capture file (one clip; its skeleton becomes the rig).
+    /// Input: BVH motion-capture files, the flag repeated per file (one clip per file, named
+    /// by its stem; the files must share one skeleton, which becomes the rig).
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
-    pub bvh: Option<PathBuf>,
+    pub bvh: Vec<PathBuf>,
     /// Run a built-in generator instead of reading a file.
     #[arg(long, value_enum)]
     pub generate: Option<Generator>,
@@ -125,8 +127,8 @@ impl Args {
         if let Some(p) = &self.curves {
             given.push(Source::Curves(p));
         }
-        if let Some(p) = &self.bvh {
-            given.push(Source::Bvh(p));
+        if !self.bvh.is_empty() {
+            given.push(Source::Bvh(&self.bvh));
         }
         if let Some(p) = &self.gltf {
             given.push(Source::Gltf(p));
@@ -185,7 +187,7 @@ pub const MAX_FPS: f64 = 1000.0;
 /// Where the clips come from.
 enum Source<'a> {
     Curves(&'a std::path::Path),
-    Bvh(&'a std::path::Path),
+    Bvh(&'a [PathBuf]),
     Gltf(&'a std::path::Path),
     Generate(Generator),
 }
@@ -214,10 +216,16 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
             provenance = provenance.with_input("curves", path)?;
             from_table(args, path)?
         }
-        Source::Bvh(path) => {
-            provenance = provenance.with_input("bvh", path)?;
-            let hash = provenance.inputs["bvh"].blake3.clone();
-            imported::bvh(path, args.fps, args.max_frames, hash).map_err(StageError::Input)?
+        Source::Bvh(paths) => {
+            let names: Vec<String> = match paths {
+                [_] => vec!["bvh".to_string()],
+                _ => (0..paths.len()).map(|i| format!("bvh[{i}]")).collect(),
+            };
+            for (name, path) in names.iter().zip(paths) {
+                provenance = provenance.with_input(name, path)?;
+            }
+            let hash = provenance.inputs[&names[0]].blake3.clone();
+            imported::bvh(paths, args.fps, args.max_frames, hash).map_err(StageError::Input)?
         }
         Source::Gltf(path) => {
             provenance = provenance.with_input("gltf", path)?;
@@ -289,7 +297,6 @@ fn from_table(args: &Args, path: &std::path::Path) -> StageResult<(Frames, Contr
     Ok((frames, Controls { controls, rig }, clips))
 }
 
-
 /// What the stage reads and writes, for the runner's wiring by artifact
 /// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
 pub const WIRING: reprise_stagekit::wiring::Wiring = {
@@ -298,14 +305,14 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         stage: "ingest",
         bin: "reprise-ingest",
         inputs: &[
-        wiring::optional_source("curves", "a curve table (CSV or Parquet)"),
-        wiring::optional_source("gltf", "a glTF character (.glb/.gltf)"),
-        wiring::optional_source("bvh", "a BVH take"),
+            wiring::optional_source("curves", "a curve table (CSV or Parquet)"),
+            wiring::optional_source("gltf", "a glTF character (.glb/.gltf)"),
+            wiring::optional_source("bvh", "BVH takes of one skeleton (a file, a list or a glob)"),
         ],
         outputs: &[
-        wiring::artifact("frames", "frames.parquet"),
-        wiring::artifact("controls", "controls.parquet"),
-        wiring::artifact("clips", "clips.parquet"),
+            wiring::artifact("frames", "frames.parquet"),
+            wiring::artifact("controls", "controls.parquet"),
+            wiring::artifact("clips", "clips.parquet"),
         ],
         derived: &[],
     }

@@ -15,7 +15,7 @@ pub(super) fn args(dir: &Path, name: &str, text: &str) -> Args {
     std::fs::write(&curves, text).unwrap();
     Args {
         curves: Some(curves),
-        bvh: None,
+        bvh: vec![],
         gltf: None,
         generate: None,
         seed: 7,
@@ -266,4 +266,56 @@ fn flags_are_validated() {
     a.check = true;
     a.curves = Some(dir.path().join("not-yet.csv"));
     assert!(run(&a).unwrap().is_none());
+}
+
+/// A BVH take of one joint: `frames` frames at 10 fps, rotating about Z by `step`
+/// degrees a frame; `bone` is the end site's length.
+fn take(frames: usize, step: f64, bone: f64) -> String {
+    let mut text = format!(
+        "HIERARCHY\nROOT J\n{{\n  OFFSET 0 0 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n  End Site\n  {{\n    \
+         OFFSET 0 {bone} 0\n  }}\n}}\nMOTION\nFrames: {frames}\nFrame Time: 0.1\n"
+    );
+    for f in 0..frames {
+        text.push_str(&format!("{} 0 0\n", step * f as f64));
+    }
+    text
+}
+
+/// Several BVH takes of one skeleton are one ingest: a clip per file (named by its stem),
+/// controls' ranges over all of them, the first file as the rig, every file in the
+/// provenance. Another skeleton or a repeated stem is refused by name.
+#[test]
+fn several_bvh_takes_are_one_source() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut a = args(dir.path(), "unused.csv", "a\n1\n");
+    a.curves = None;
+    a.fps = 10.0;
+    for (name, frames, step) in [("walk.bvh", 4, 10.0), ("turn.bvh", 6, -5.0)] {
+        std::fs::write(dir.path().join(name), take(frames, step, 1.0)).unwrap();
+        a.bvh.push(dir.path().join(name));
+    }
+    let s = run(&a).unwrap().unwrap();
+    assert_eq!((s.frames, s.clips), (10, 2));
+    let cl = clips::read(&a.clips).unwrap();
+    assert_eq!(cl.iter().map(|c| (c.clip.as_str(), c.frames)).collect::<Vec<_>>(), [("walk", 4), ("turn", 6)]);
+    assert!(cl[1].source.ends_with("turn.bvh"), "{}", cl[1].source);
+    let c = Controls::read(&a.controls).unwrap();
+    let rz = c.controls.iter().find(|c| c.name == "J.rz").unwrap();
+    assert!((rz.min + 25f64.to_radians()).abs() < 1e-9 && (rz.max - 30f64.to_radians()).abs() < 1e-9, "{rz:?}");
+    assert!(matches!(&c.rig, RigRef::Bvh { path, .. } if path.ends_with("walk.bvh")), "{:?}", c.rig);
+    assert_eq!(Frames::read(&a.frames).unwrap().rows(), 10);
+    let meta = reprise_artifact::table::metadata_of(&a.frames).unwrap();
+    let prov = &meta[reprise_artifact::provenance::KEY_INPUTS];
+    assert!(prov.contains("bvh[0]") && prov.contains("bvh[1]"), "{prov}");
+
+    std::fs::write(dir.path().join("other.bvh"), take(3, 1.0, 2.0)).unwrap();
+    a.bvh.push(dir.path().join("other.bvh"));
+    let e = run(&a).unwrap_err().to_string();
+    assert!(e.contains("other.bvh: its skeleton differs from") && e.contains("walk.bvh"), "{e}");
+    a.bvh.pop();
+    std::fs::create_dir(dir.path().join("b")).unwrap();
+    std::fs::write(dir.path().join("b/walk.bvh"), take(3, 1.0, 1.0)).unwrap();
+    a.bvh.push(dir.path().join("b/walk.bvh"));
+    let e = run(&a).unwrap_err().to_string();
+    assert!(e.contains("two takes named `walk`"), "{e}");
 }

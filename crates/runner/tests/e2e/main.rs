@@ -6,5 +6,6 @@
 mod cache;
 mod commands;
 mod failures;
+mod multi_input;
 mod project;
 mod selection;
