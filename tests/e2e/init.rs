@@ -93,6 +93,17 @@ fn init_refuses_sources_it_cannot_make_a_pipeline_of() {
     let e = p.reprise(&["init", "--bvh", "one.bvh", "--labels", "labels.toml"]).fails(3);
     assert!(e.contains("checking the source, stage `label` failed") && e.contains("labels.toml"), "{e}");
     assert!(!p.path("pipeline.toml").exists() && !p.path("scripts").exists(), "nothing written");
+    p.reprise(&["init", "--bvh", "one.bvh", "--pipeline", "new/dir/pipeline.toml"]).fails(2);
+    assert!(!p.path("new/dir").exists(), "a directory made for the pipeline goes when init fails");
+
+    // Into a directory of its own, with a list of takes: paths relative to the pipeline.
+    p.write("two.bvh", &take(60, 1.5));
+    p.reprise(&["init", "--bvh", "one.bvh", "two.bvh", "--pipeline", "new/dir/pipeline.toml"]).ok();
+    let pipeline = p.read("new/dir/pipeline.toml");
+    assert!(pipeline.contains("inputs.bvh = [\"../../one.bvh\", \"../../two.bvh\"]"), "{pipeline}");
+    assert!(p.path("new/dir/labels.toml").exists() && p.path("new/dir/scripts/demo.toml").exists());
+    let dag = p.reprise(&["dag", "--pipeline", "new/dir/pipeline.toml"]).ok();
+    assert!(dag.contains("<- bvh[1]: ../../two.bvh (source file)"), "{dag}");
 }
 
 /// The done-when: the Kenney character from its file alone to the report.

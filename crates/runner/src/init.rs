@@ -125,17 +125,65 @@ pub fn init(args: &InitArgs, dirs: &BinDirs, out: &mut dyn Write) -> Result<()> 
     let file = args.pipeline.pipeline.display().to_string();
     let pipeline = Pipeline::parse_wired(&text, &file, &dir, dirs.known)?;
 
-    // Ingest, label, scale and reduce the source in a scratch directory, as `reprise run` will.
-    let probe = Probe::new(&pipeline, dirs)?;
+    // Ingest, label, scale and reduce the source in a scratch directory, as `reprise run`
+    // will; the stages run in the pipeline's directory, made now and removed again if
+    // nothing gets written to it.
+    let made_dir = !dir.exists();
+    std::fs::create_dir_all(&dir).map_err(|source| Error::Io { path: dir.clone(), source })?;
+    let written = probe_and_write(
+        dirs,
+        &pipeline,
+        &Files {
+            labels: labels_path.as_deref(),
+            labels_ref: &labels_ref,
+            generated_labels: &generated_labels,
+            scripts: &scripts_path,
+            pipeline: &pipeline_path,
+        },
+        &text,
+    );
+    if written.is_err() && made_dir {
+        let _ = std::fs::remove_dir(&dir);
+    }
+    let (clips, plan, segments) = written?;
+    let _ = write!(out, "{}", summary(&pipeline_path, &clips, plan.as_ref(), &segments, &cwd));
+    Ok(())
+}
+
+/// Where `init` writes, and the labels it was given.
+struct Files<'a> {
+    /// `--labels`, absolute.
+    labels: Option<&'a Path>,
+    /// The labels file as the pipeline names it.
+    labels_ref: &'a str,
+    /// Where a generated labels file goes.
+    generated_labels: &'a Path,
+    /// The demo script.
+    scripts: &'a Path,
+    /// The pipeline file.
+    pipeline: &'a Path,
+}
+
+/// Probes the source, then writes the labels (if generated), the script and the pipeline
+/// `text`: the clips, the generated labels and the segments they make.
+fn probe_and_write(
+    dirs: &BinDirs,
+    pipeline: &Pipeline,
+    files: &Files<'_>,
+    text: &str,
+) -> Result<(Vec<ClipInfo>, Option<LabelsPlan>, Vec<Segment>)> {
+    let dir = &pipeline.dir;
+    let labels_ref = files.labels_ref;
+    let probe = Probe::new(pipeline, dirs)?;
     probe.run("ingest", None)?;
     let clips: Vec<ClipInfo> = reprise_artifact::clips::read(&probe.file("clips.parquet"))
         .map_err(|e| Error::Init(format!("reading what ingest wrote: {e}")))?
         .into_iter()
         .map(|c| ClipInfo { name: c.clip, frames: c.frames })
         .collect();
-    let (plan, segments) = match &labels_path {
+    let (plan, segments) = match files.labels {
         Some(_) => {
-            let thin = probe.thin_labels(&ArtifactPath::new(&dir, &labels_ref))?;
+            let thin = probe.thin_labels(&ArtifactPath::new(dir, labels_ref))?;
             if let Some((label, why)) = thin.iter().next() {
                 return Err(Error::Init(format!(
                     "{labels_ref}: label `{label}` {why}; exclude its clips or give it more of the motion"
@@ -156,12 +204,11 @@ pub fn init(args: &InitArgs, dirs: &BinDirs, out: &mut dyn Write) -> Result<()> 
     let script = script_text(&segments)?;
 
     if let Some(plan) = &plan {
-        write_atomic(&generated_labels, &plan.text)?;
+        write_atomic(files.generated_labels, &plan.text)?;
     }
-    write_atomic(&scripts_path, &script)?;
-    write_atomic(&pipeline_path, &text)?;
-    let _ = write!(out, "{}", summary(&pipeline_path, &clips, plan.as_ref(), &segments, &cwd));
-    Ok(())
+    write_atomic(files.scripts, &script)?;
+    write_atomic(files.pipeline, text)?;
+    Ok((clips, plan, segments))
 }
 
 /// The pipeline's first stages run on the source in a scratch directory.
