@@ -296,10 +296,20 @@ fn hold_run_lock(pipeline: &Pipeline) -> Result<std::fs::File> {
         .write(true)
         .open(&path)
         .map_err(|source| Error::Io { path: path.clone(), source })?;
-    match file.try_lock() {
-        Ok(()) => Ok(file),
-        Err(std::fs::TryLockError::WouldBlock) => Err(Error::AlreadyRunning { path }),
-        Err(std::fs::TryLockError::Error(source)) => Err(Error::Io { path, source }),
+    // A lock seen held is asked again for a moment: a child another thread of this process
+    // is starting holds a copy of every descriptor between its fork and its exec, so a run
+    // that just ended can look alive for a few microseconds (when `main_with_args` is
+    // called from several threads, as the tests do).
+    let deadline = Instant::now() + std::time::Duration::from_millis(500);
+    loop {
+        match file.try_lock() {
+            Ok(()) => return Ok(file),
+            Err(std::fs::TryLockError::WouldBlock) if Instant::now() < deadline => {
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+            Err(std::fs::TryLockError::WouldBlock) => return Err(Error::AlreadyRunning { path }),
+            Err(std::fs::TryLockError::Error(source)) => return Err(Error::Io { path, source }),
+        }
     }
 }
 
