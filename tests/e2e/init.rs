@@ -1,6 +1,7 @@
 //! `reprise init` then `reprise run`: a new character's pipeline written from its source
 //! alone runs to the report with no hand edits — on BVH takes made here (a glob), and on
-//! the Kenney glTF character from `../shared` when it is there.
+//! the Kenney glTF character from `../shared` when it is there. And what `status` says
+//! about one label's frames changing.
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
@@ -69,6 +70,20 @@ fn init_on_bvh_takes_then_run_makes_a_report() {
     assert!(refused.contains("pipeline.toml` exists; refusing to overwrite it (give --force"), "{refused}");
     p.reprise(&["init", "--bvh", "takes/*.bvh", "--force"]).ok();
     assert!(p.reprise(&["run"]).ok().contains("all 11 stages are up to date"));
+
+    // Excluding frames from the middle of one take: the stages after label see which
+    // label's rows changed (the other labels' segments are renumbered, not changed).
+    let labels = p.read("labels.toml");
+    p.write("labels.toml", &format!("{labels}[[exclude]]\nclip = \"nod\"\nstart = 20\nend = 23\n"));
+    p.reprise(&["run", "--to", "label"]).ok();
+    let status = p.reprise(&["status"]).ok();
+    assert!(
+        status.contains(
+            "input `labeled_frames` changed (artifacts/takes/labeled_frames.parquet): label `nod` changed; 2 label(s) \
+             unchanged"
+        ),
+        "{status}"
+    );
 
     p.write("takes/turn.bvh", &take(48, 1.3));
     let status = p.reprise(&["status"]).ok();

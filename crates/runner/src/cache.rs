@@ -42,6 +42,8 @@ pub enum Reason {
     InputMissing { name: String, path: String },
     /// An input's content differs from the recorded one.
     InputChanged { name: String, path: String },
+    /// An input's content differs, and both runs know its label partitions: which changed.
+    InputLabelsChanged { name: String, path: String, delta: crate::partition::Delta },
     /// An input declared now that the recorded run did not have, or now at another path.
     InputAdded { name: String, path: String },
     /// A recorded input that is no longer declared.
@@ -72,6 +74,7 @@ impl fmt::Display for Reason {
             Self::ParamRemoved { name, old } => write!(f, "parameter `{name}` removed (was {old})"),
             Self::InputMissing { name, path } => write!(f, "input `{name}` missing ({path})"),
             Self::InputChanged { name, path } => write!(f, "input `{name}` changed ({path})"),
+            Self::InputLabelsChanged { name, path, delta } => write!(f, "input `{name}` changed ({path}): {delta}"),
             Self::InputAdded { name, path } => write!(f, "input `{name}` added ({path})"),
             Self::InputRemoved { name } => write!(f, "input `{name}` removed"),
             Self::OutputMissing { name, path } => write!(f, "output `{name}` missing ({path})"),
@@ -250,7 +253,15 @@ fn own_reasons(
             (_, None) => {} // reported above, or explained upstream
             (Some(old), Some(now)) if old.path == path.rel => {
                 if &old.blake3 != now {
-                    reasons.push(Reason::InputChanged { name: name.clone(), path: path.rel.clone() });
+                    let labels = (!old.labels.is_empty()).then(|| crate::partition::label_digests(&path.abs)).flatten();
+                    reasons.push(match labels {
+                        Some(new) => Reason::InputLabelsChanged {
+                            name: name.clone(),
+                            path: path.rel.clone(),
+                            delta: crate::partition::Delta::between(&old.labels, &new),
+                        },
+                        None => Reason::InputChanged { name: name.clone(), path: path.rel.clone() },
+                    });
                 }
             }
             (_, Some(_)) => reasons.push(Reason::InputAdded { name: name.clone(), path: path.rel.clone() }),
@@ -368,6 +379,7 @@ mod tests {
                 let record = |path: &crate::paths::ArtifactPath, h: &mut FileHasher| FileRecord {
                     path: path.rel.clone(),
                     blake3: h.hash(&path.abs).unwrap().unwrap(),
+                    labels: BTreeMap::new(),
                 };
                 let entry = LockEntry {
                     key: current_key(stage, &bin, &inputs).unwrap(),

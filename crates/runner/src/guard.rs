@@ -164,7 +164,8 @@ mod tests {
         // Recorded in the lock: the pipeline's own.
         let mut lock = LockFile::empty("t");
         let p = parse(d, "outputs.o = \"notes.txt\"").unwrap();
-        let record = crate::lock::FileRecord { path: "notes.txt".into(), blake3: "x".into() };
+        let record =
+            crate::lock::FileRecord { path: "notes.txt".into(), blake3: "x".into(), labels: Default::default() };
         lock.stages.insert(
             "a".into(),
             crate::lock::LockEntry {

@@ -19,6 +19,7 @@
 //! | [`key`] | the cache key |
 //! | [`lock`] | the lock file |
 //! | [`cache`] | freshness and the reasons a stage is stale |
+//! | [`partition`] | the label partitions of an input, so `status` says which labels changed |
 //! | [`exec`] | invoking a stage process |
 //! | [`run`], [`status`], [`dag_view`], [`inspect`], [`init`] | the subcommands |
 //! | [`error`] | the error type and its exit codes |
@@ -41,6 +42,7 @@ pub mod key;
 pub mod locate;
 pub mod lock;
 pub mod params;
+pub mod partition;
 pub mod paths;
 pub mod pipeline;
 pub mod run;

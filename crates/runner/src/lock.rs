@@ -22,6 +22,10 @@ pub struct FileRecord {
     pub path: String,
     /// Hex blake3 of the content.
     pub blake3: String,
+    /// For an input with a `label` column, each label's digest
+    /// ([`crate::partition::label_digests`]), so `status` can say which labels changed.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub labels: BTreeMap<String, String>,
 }
 
 /// A stage binary: where it was, the blake3 of its bytes, and the code identity it
@@ -153,7 +157,10 @@ mod tests {
             bin: BinRecord { path: "/bin/x".into(), blake3: "ab".into(), code_id: Some("ef".into()) },
             params: BTreeMap::from([("z".into(), serde_json::json!(1)), ("a".into(), serde_json::json!(["x"]))]),
             inputs: BTreeMap::new(),
-            outputs: BTreeMap::from([("o".into(), FileRecord { path: "out/o".into(), blake3: "cd".into() })]),
+            outputs: BTreeMap::from([(
+                "o".into(),
+                FileRecord { path: "out/o".into(), blake3: "cd".into(), labels: BTreeMap::new() },
+            )]),
             finished_at: "2025-01-02T03:04:05Z".into(),
             seconds: 0.5,
             peak_rss_mb: Some(12.5),

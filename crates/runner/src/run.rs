@@ -194,7 +194,8 @@ fn run_stage(
                 path: path.rel.clone(),
             });
         };
-        input_records.insert(name.clone(), FileRecord { path: path.rel.clone(), blake3 });
+        let labels = crate::partition::label_digests(&path.abs).unwrap_or_default();
+        input_records.insert(name.clone(), FileRecord { path: path.rel.clone(), blake3, labels });
     }
     for (_, path) in &stage.outputs {
         hasher.forget(&path.abs);
@@ -246,7 +247,7 @@ fn run_stage(
                 path: path.rel.clone(),
             });
         };
-        outputs.insert(name.clone(), FileRecord { path: path.rel.clone(), blake3 });
+        outputs.insert(name.clone(), FileRecord { path: path.rel.clone(), blake3, labels: BTreeMap::new() });
     }
     let key = cache::current_key(stage, bin, &inputs).unwrap_or_default();
     Ok(LockEntry {

@@ -1,0 +1,188 @@
+//! Label partitions of an artifact: the blake3 of each label's rows, so the runner can say
+//! *which* labels of a changed input changed (the first step of partitioned stages; the
+//! README's "Partitioned stages" plan).
+//!
+//! A Parquet artifact with a Utf8 column `label` has one partition per label. A partition's
+//! digest hashes the schema (every column's name and type but `label`) and, in file order,
+//! each of the label's rows in arrow's row format. A `segment_id` column is hashed as the
+//! segment's ordinal within the label (0 for its first segment, …): ids are numbered across
+//! labels, so another label gaining a segment renumbers this one's without changing its data.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::path::Path;
+
+use arrow::array::{Array, Int64Array, StringArray};
+use arrow::datatypes::DataType;
+use arrow::record_batch::RecordBatchReader;
+use arrow::row::{RowConverter, SortField};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+
+/// The column that names a row's partition.
+pub const PARTITION_COLUMN: &str = "label";
+
+/// The column hashed by ordinal within its partition.
+pub const SEGMENT_COLUMN: &str = "segment_id";
+
+/// Each label's digest (hex blake3), or `None` when `path` is not a Parquet file with a
+/// Utf8 `label` column or cannot be read (the file's own content hash still decides
+/// freshness; partitions only explain it).
+#[must_use]
+pub fn label_digests(path: &Path) -> Option<BTreeMap<String, String>> {
+    let file = File::open(path).ok()?;
+    let reader = ParquetRecordBatchReaderBuilder::try_new(file).ok()?.build().ok()?;
+    let schema = reader.schema();
+    let label_at = schema.index_of(PARTITION_COLUMN).ok()?;
+    if schema.field(label_at).data_type() != &DataType::Utf8 {
+        return None;
+    }
+    let segment_at = schema.index_of(SEGMENT_COLUMN).ok().filter(|&i| schema.field(i).data_type() == &DataType::Int64);
+    let hashed: Vec<usize> = (0..schema.fields().len()).filter(|&i| i != label_at && Some(i) != segment_at).collect();
+    let mut shape = blake3::Hasher::new();
+    for &i in &hashed {
+        let field = schema.field(i);
+        shape.update(format!("{}:{:?};", field.name(), field.data_type()).as_bytes());
+    }
+    let converter =
+        RowConverter::new(hashed.iter().map(|&i| SortField::new(schema.field(i).data_type().clone())).collect())
+            .ok()?;
+    let mut hashers: BTreeMap<String, blake3::Hasher> = BTreeMap::new();
+    let mut ordinals: BTreeMap<String, (Vec<i64>, u64)> = BTreeMap::new();
+    for batch in reader {
+        let batch = batch.ok()?;
+        let labels = batch.column(label_at).as_any().downcast_ref::<StringArray>()?;
+        let segments = match segment_at {
+            Some(i) => Some(batch.column(i).as_any().downcast_ref::<Int64Array>()?),
+            None => None,
+        };
+        let columns: Vec<_> = hashed.iter().map(|&i| batch.column(i).clone()).collect();
+        let rows = converter.convert_columns(&columns).ok()?;
+        for r in 0..batch.num_rows() {
+            if labels.is_null(r) {
+                return None;
+            }
+            let label = labels.value(r);
+            let hasher = hashers.entry(label.to_string()).or_insert_with(|| shape.clone());
+            if let Some(segments) = segments {
+                let (seen, _) = ordinals.entry(label.to_string()).or_insert_with(|| (Vec::new(), 0));
+                let id = segments.value(r);
+                let ordinal = seen.iter().position(|&s| s == id).unwrap_or_else(|| {
+                    seen.push(id);
+                    seen.len() - 1
+                });
+                hasher.update(&(ordinal as u64).to_le_bytes());
+            }
+            let row = rows.row(r);
+            hasher.update(&(row.as_ref().len() as u64).to_le_bytes());
+            hasher.update(row.as_ref());
+        }
+    }
+    Some(hashers.into_iter().map(|(label, h)| (label, h.finalize().to_hex().to_string())).collect())
+}
+
+/// How the partitions of an input differ between two runs.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Delta {
+    /// Labels whose rows changed.
+    pub changed: Vec<String>,
+    /// Labels that are new.
+    pub added: Vec<String>,
+    /// Labels that are gone.
+    pub removed: Vec<String>,
+    /// How many labels are unchanged.
+    pub unchanged: usize,
+}
+
+impl Delta {
+    /// The difference from `old` to `new`.
+    #[must_use]
+    pub fn between(old: &BTreeMap<String, String>, new: &BTreeMap<String, String>) -> Self {
+        let mut delta = Self::default();
+        for (label, digest) in new {
+            match old.get(label) {
+                None => delta.added.push(label.clone()),
+                Some(before) if before != digest => delta.changed.push(label.clone()),
+                Some(_) => delta.unchanged += 1,
+            }
+        }
+        delta.removed = old.keys().filter(|l| !new.contains_key(*l)).cloned().collect();
+        delta
+    }
+}
+
+impl std::fmt::Display for Delta {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let list = |labels: &[String]| labels.iter().map(|l| format!("`{l}`")).collect::<Vec<_>>().join(", ");
+        let mut parts = Vec::new();
+        for (labels, what) in [(&self.changed, "changed"), (&self.added, "added"), (&self.removed, "removed")] {
+            if !labels.is_empty() {
+                parts.push(format!("label {} {what}", list(labels)));
+            }
+        }
+        if parts.is_empty() {
+            parts.push("no label's rows changed".into());
+        }
+        write!(f, "{}; {} label(s) unchanged", parts.join(", "), self.unchanged)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use arrow::array::{ArrayRef, Float64Array};
+    use arrow::datatypes::{Field, Schema};
+    use arrow::record_batch::RecordBatch;
+    use parquet::arrow::ArrowWriter;
+
+    use super::*;
+
+    /// Writes rows `(segment_id, label, value)`.
+    fn write(path: &Path, rows: &[(i64, &str, f64)]) {
+        let schema = Arc::new(Schema::new(vec![
+            Field::new("segment_id", DataType::Int64, false),
+            Field::new("label", DataType::Utf8, false),
+            Field::new("value", DataType::Float64, false),
+        ]));
+        let columns: Vec<ArrayRef> = vec![
+            Arc::new(Int64Array::from(rows.iter().map(|r| r.0).collect::<Vec<_>>())),
+            Arc::new(StringArray::from(rows.iter().map(|r| r.1).collect::<Vec<_>>())),
+            Arc::new(Float64Array::from(rows.iter().map(|r| r.2).collect::<Vec<_>>())),
+        ];
+        let batch = RecordBatch::try_new(schema.clone(), columns).unwrap();
+        let mut writer = ArrowWriter::try_new(File::create(path).unwrap(), schema, None).unwrap();
+        writer.write(&batch).unwrap();
+        writer.close().unwrap();
+    }
+
+    /// Changing one label's rows changes its digest only; another label gaining a segment
+    /// renumbers the later labels' segment ids without changing their digests.
+    #[test]
+    fn one_labels_rows_change_only_its_digest() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a.parquet"), dir.path().join("b.parquet"));
+        write(&a, &[(0, "idle", 1.0), (0, "idle", 2.0), (1, "wave", 3.0), (2, "nod", 4.0), (2, "nod", 5.0)]);
+        write(&b, &[(0, "idle", 1.0), (1, "idle", 2.5), (2, "wave", 3.0), (3, "nod", 4.0), (3, "nod", 5.0)]);
+        let (old, new) = (label_digests(&a).unwrap(), label_digests(&b).unwrap());
+        assert_eq!(old.len(), 3);
+        let delta = Delta::between(&old, &new);
+        assert_eq!(delta, Delta { changed: vec!["idle".into()], added: vec![], removed: vec![], unchanged: 2 });
+        assert_eq!(delta.to_string(), "label `idle` changed; 2 label(s) unchanged");
+
+        write(&b, &[(0, "idle", 1.0), (0, "idle", 2.0), (1, "wave", 3.0), (2, "wave", 3.0), (3, "run", 1.0)]);
+        let delta = Delta::between(&old, &label_digests(&b).unwrap());
+        assert_eq!(
+            delta.to_string(),
+            "label `wave` changed, label `run` added, label `nod` removed; 1 label(s) unchanged"
+        );
+    }
+
+    #[test]
+    fn files_without_labels_have_no_partitions() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = dir.path().join("labels.toml");
+        std::fs::write(&text, "[[rule]]\n").unwrap();
+        assert_eq!(label_digests(&text), None);
+        assert_eq!(label_digests(&dir.path().join("missing.parquet")), None);
+    }
+}
