@@ -137,3 +137,26 @@ fn init_on_the_kenney_character_then_run_makes_a_report() {
     assert!(p.read("reports/character-male-a/report.md").contains("## Conclusions"));
     assert!(p.path("artifacts/character-male-a/exported.glb").exists());
 }
+
+/// A curve table with its rig evaluator: init passes the evaluator to ingest, and the
+/// pipeline runs to the report.
+#[test]
+fn init_on_a_curve_table_with_an_external_rig_then_run_makes_a_report() {
+    let p = Project::empty();
+    let mut csv = String::from("clip,frame,c0,c1,c2,c3,c4,c5\n");
+    for (clip, rate) in [("calm", 0.4), ("busy", 1.3)] {
+        for f in 0..60 {
+            let s = f64::from(f) / 24.0 * rate;
+            let values: Vec<String> = (0..6)
+                .map(|c| format!("{:.5}", (2.0 * PI * (0.5 + 0.3 * f64::from(c)) * s + f64::from(c)).sin()))
+                .collect();
+            let _ = writeln!(csv, "{clip},{f},{}", values.join(","));
+        }
+    }
+    p.write("curves.csv", &csv);
+    let rig = format!("{},--vertices,7", env!("CARGO_BIN_EXE_reprise-example-rig"));
+    p.reprise(&["init", "--curves", "curves.csv", "--external-rig", &rig]).ok();
+    assert!(p.read("pipeline.toml").contains("external_rig = ["), "{}", p.read("pipeline.toml"));
+    p.reprise(&["run"]).ok();
+    assert!(p.read("reports/curves/report.md").contains("## Conclusions"));
+}
