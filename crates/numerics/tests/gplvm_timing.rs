@@ -184,17 +184,22 @@ fn trajectories(segments: usize, len: usize, seed: u64) -> (Vec<f64>, Vec<f64>, 
 }
 
 /// The connectivity prior's paths per evaluation (value and gradient, one thread) at
-/// N = 200 … 1600 on smooth trajectories of 100 frames: the exact path and the subset
-/// path at strides 2 and 3, as times, ratios exact / subset, and the subset's relative
-/// error against the exact value and gradient (it is a different function: see
-/// connectivity.rs).
+/// N = 200 … 1600 on smooth trajectories of 100 frames: the exact path against the coarse
+/// graph of runs of 2 and 3 frames and the subset of every other frame, as times, the
+/// ratio exact / path, and each path's error against the exact prior: relative value
+/// error, relative gradient error ‖g − g_exact‖/‖g_exact‖ and the gradient's direction
+/// cosine (see connectivity.rs).
 #[test]
 #[ignore]
 fn connectivity_paths() {
-    use reprise_numerics::gplvm::subset_rows;
+    use reprise_numerics::gplvm::{coarse_groups, subset_rows};
     let q = 3;
-    println!("| N | exact (ms) | stride 2 (ms) | exact / stride 2 | stride 3 (ms) | exact / stride 3 | value rel. err. (2 / 3) | gradient rel. err. (2 / 3) | gradient cosine (2 / 3) |");
-    println!("|---|---|---|---|---|---|---|---|---|");
+    let paths = ["coarse 2", "coarse 3", "subset 2"];
+    println!(
+        "| N | exact (ms) |{}",
+        paths.iter().map(|p| format!(" {p} (ms) | exact / {p} | value err. | gradient err. | cosine |")).collect::<String>()
+    );
+    println!("|---|---|{}", "---|---|---|---|---|".repeat(paths.len()));
     for n in [200, 400, 800, 1600] {
         let reps = if n >= 1600 { 3 } else { 7 };
         let (x, times, segs) = trajectories(n / 100, 100, n as u64);
@@ -206,24 +211,29 @@ fn connectivity_paths() {
         let t_exact = median_ms(reps, || {
             exact.value_grad_add(&x, &mut gx).unwrap();
         });
-        let mut row = vec![];
-        for stride in [2, 3] {
-            let mut sub = ConnectivityPrior::on_subset(n, subset_rows(&times, &segs, stride), q, params).unwrap();
+        let mut row = format!("| {n} | {t_exact:.1} |");
+        for path in paths {
+            let mut prior = match path {
+                "coarse 2" => ConnectivityPrior::coarse(coarse_groups(&times, &segs, 2), q, params),
+                "coarse 3" => ConnectivityPrior::coarse(coarse_groups(&times, &segs, 3), q, params),
+                _ => ConnectivityPrior::on_subset(n, subset_rows(&times, &segs, 2), q, params),
+            }
+            .unwrap();
             let mut g = vec![0.0; n * q];
-            let v = sub.value_grad_add(&x, &mut g).unwrap().value;
+            let v = prior.value_grad_add(&x, &mut g).unwrap().value;
             let t = median_ms(reps, || {
-                sub.value_grad_add(&x, &mut gx).unwrap();
+                prior.value_grad_add(&x, &mut gx).unwrap();
             });
             let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
             let diff: Vec<f64> = g.iter().zip(&g_exact).map(|(a, b)| a - b).collect();
             let cos = g.iter().zip(&g_exact).map(|(a, b)| a * b).sum::<f64>() / (norm(&g) * norm(&g_exact));
-            row.push((t, (v - v_exact).abs() / v_exact.abs(), norm(&diff) / norm(&g_exact), cos));
+            row += &format!(
+                " {t:.2} | {:.1} | {:.2e} | {:.2} | {cos:.3} |",
+                t_exact / t,
+                (v - v_exact).abs() / v_exact.abs(),
+                norm(&diff) / norm(&g_exact)
+            );
         }
-        let [(t2, e2, g2, c2), (t3, e3, g3, c3)] = [row[0], row[1]];
-        println!(
-            "| {n} | {t_exact:.1} | {t2:.2} | {:.1} | {t3:.2} | {:.1} | {e2:.2e} / {e3:.2e} | {g2:.2} / {g3:.2} | {c2:.3} / {c3:.3} |",
-            t_exact / t2,
-            t_exact / t3
-        );
+        println!("{row}");
     }
 }

@@ -446,10 +446,10 @@ min_components = 3
 [stage.gplvm.params]
 q = 3
 optimizer = "lbfgs"
-connectivity_path = "exact"
-signal_prior_sd = 0.0          # today's fit; see the default pipeline for converging ones
-noise_floor = 0.0
-max_iters = 300
+connectivity_path = "auto"     # exact up to 300 frames a label, the coarse graph above
+signal_prior_sd = 0.25         # fitted to convergence (README, "The GPLVM fit")
+noise_floor = 1e-3
+max_iters = 5000               # a safety net: a fit that reaches it is reported NOT converged
 dynamics_lengthscale = 0.2     # seconds
 connectivity_weight = 1e-3
 heldout_every = 10             # leave out every 10th frame and compare with PCA

@@ -233,6 +233,26 @@ fn synthetic(dir: &Path) -> PathBuf {
         speed: vec![("reprise".into(), vec![-1, 0, 1], vec![0.1, 0.2, 0.1])],
         latencies: vec![("reprise".into(), vec![0.3, 0.4, 0.5], 0), ("Motion Graphs".into(), vec![1.0], 2)],
         traces: vec![("a".into(), vec![(1, 10.0), (2, 5.0), (3, 4.5)])],
+        fits: vec![crate::html::FitRow {
+            label: "a".into(),
+            frames: 3,
+            d: 2,
+            path: "coarse".into(),
+            optimizer: "lbfgs".into(),
+            iterations: "3".into(),
+            evaluations: 4,
+            seconds: 0.5,
+            objective: 4.5,
+            likelihood: 3.0,
+            dynamics: 1.0,
+            connectivity: 0.4,
+            signal: 0.1,
+            connectivity_exact: 0.41,
+            converged: false,
+            stop_reason: "max-iterations".into(),
+            rel_decrease: 1e-3,
+            rel_gradient: 1e-2,
+        }],
         labels: &labels,
         player: Some(player),
         missing: vec!["Crossfade answered none of the 1 requests a → b.".into()],
@@ -242,6 +262,20 @@ fn synthetic(dir: &Path) -> PathBuf {
     let html = crate::report::tests::with_ctx(&systems, &[], |ctx| html::page(&page, &rows, ctx));
     std::fs::write(&path, html).unwrap();
     path
+}
+
+/// The fit table (no browser needed): a capped fit is said NOT converged, with why, and
+/// the count of converged labels heads it.
+#[test]
+fn fit_table_says_which_labels_converged() {
+    let dir = std::env::temp_dir().join(format!("reprise-fits-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let html = std::fs::read_to_string(synthetic(&dir)).unwrap();
+    assert!(html.contains("0 of 1 labels converged"), "the count is said");
+    assert!(html.contains("NOT converged: max-iterations"), "the capped fit is said not converged");
+    assert!(html.contains("<table class='fits'>") && html.contains("exact conn."));
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The synthetic page: no errors, both players ready, every section, meshes on screen.

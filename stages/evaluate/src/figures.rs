@@ -110,6 +110,7 @@ pub fn figures<'a>(inp: Inputs<'a>, provenance: &reprise_artifact::Provenance) -
             vec![]
         }
     };
+    let fits = fit_rows(&args.gplvm_fits)?;
     let latencies = inp
         .systems
         .iter()
@@ -131,6 +132,7 @@ pub fn figures<'a>(inp: Inputs<'a>, provenance: &reprise_artifact::Provenance) -
         speed: inp.speed,
         latencies,
         traces,
+        fits,
         labels: inp.labels,
         player: Some(player),
         missing,
@@ -210,6 +212,41 @@ fn traces(path: &Path) -> StageResult<Vec<html::Trace>> {
         }
     }
     Ok(out)
+}
+
+/// Per label (in file order) the fit summary, from a `gplvm_fits` table.
+fn fit_rows(path: &Path) -> StageResult<Vec<html::FitRow>> {
+    let t = Table::read(path, reprise_artifact::gplvm::GPLVM_FITS)?;
+    let (label, path_name, optimizer, stages) =
+        (t.strings("label")?, t.strings("connectivity_path")?, t.strings("optimizer")?, t.strings("stage_iterations")?);
+    let (frames, d, evaluations) = (t.i64("frames")?, t.i64("d")?, t.i64("evaluations")?);
+    let (seconds, objective, likelihood) = (t.f64("seconds")?, t.f64("objective")?, t.f64("neg_log_likelihood")?);
+    let (dynamics, connectivity, signal) = (t.f64("dynamics")?, t.f64("connectivity")?, t.f64("signal")?);
+    let (exact, rel_decrease, rel_gradient) =
+        (t.f64("connectivity_exact")?, t.f64("rel_decrease")?, t.f64("rel_gradient")?);
+    let (converged, stop) = (t.bool("converged")?, t.strings("stop_reason")?);
+    Ok((0..t.rows())
+        .map(|r| html::FitRow {
+            label: label[r].clone(),
+            frames: frames[r],
+            d: d[r],
+            path: path_name[r].clone(),
+            optimizer: optimizer[r].clone(),
+            iterations: stages[r].clone(),
+            evaluations: evaluations[r],
+            seconds: seconds[r],
+            objective: objective[r],
+            likelihood: likelihood[r],
+            dynamics: dynamics[r],
+            connectivity: connectivity[r],
+            signal: signal[r],
+            connectivity_exact: exact[r],
+            converged: converged[r],
+            stop_reason: stop[r].clone(),
+            rel_decrease: rel_decrease[r],
+            rel_gradient: rel_gradient[r],
+        })
+        .collect())
 }
 
 /// The provenance lines: stage, commit, pipeline hash, machine, inputs, stage times.

@@ -27,6 +27,36 @@ use crate::Metric;
 /// One label's optimisation trace: (label, per iteration (iteration, objective)).
 pub type Trace = (String, Vec<(i64, f64)>);
 
+/// One label's GPLVM fit as the report shows it (a row of `gplvm_fits`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitRow {
+    /// Label, frames N and PCA dimension d.
+    pub label: String,
+    pub frames: i64,
+    pub d: i64,
+    /// How the connectivity prior entered the fit, and the optimiser.
+    pub path: String,
+    pub optimizer: String,
+    /// Iterations (per stage, "i1+i2"), evaluations and seconds.
+    pub iterations: String,
+    pub evaluations: i64,
+    pub seconds: f64,
+    /// The minimised objective and its parts: −log p(Y|X), dynamics, connectivity (as the
+    /// fit computed it), signal prior; and the exact connectivity prior at the optimum.
+    pub objective: f64,
+    pub likelihood: f64,
+    pub dynamics: f64,
+    pub connectivity: f64,
+    pub signal: f64,
+    pub connectivity_exact: f64,
+    /// Whether it converged, and why it stopped.
+    pub converged: bool,
+    pub stop_reason: String,
+    /// The convergence rule's measures at the optimum.
+    pub rel_decrease: f64,
+    pub rel_gradient: f64,
+}
+
 /// A mesh with its caption.
 pub type Picture = (String, Vec<f64>);
 
@@ -55,6 +85,8 @@ pub struct Page<'a> {
     pub latencies: Vec<(String, Vec<f64>, usize)>,
     /// Per label the GPLVM objective by iteration.
     pub traces: Vec<Trace>,
+    /// Per label the GPLVM fit's summary (from `gplvm_fits`).
+    pub fits: Vec<FitRow>,
     /// Labels in order (for the coverage map).
     pub labels: &'a [String],
     /// The player's content (`None`: it could not be built; the reason is in `missing`).
@@ -203,6 +235,57 @@ fn table(s: &mut String, class: &str, head: &[String], rows: &[Vec<(String, bool
         *s += "</tr>";
     }
     *s += "</tbody></table>";
+}
+
+/// The per-label fit summaries: work done, the objective split into its parts, and
+/// whether (and why) each fit stopped.
+fn fit_table(s: &mut String, fits: &[FitRow]) {
+    if fits.is_empty() {
+        *s += "<p>No fit summaries given.</p>";
+        return;
+    }
+    let converged = fits.iter().filter(|f| f.converged).count();
+    let _ = write!(
+        s,
+        "<p>{converged} of {} labels converged (mean relative decrease per iteration over the rule's window, and \
+         the scaled gradient, both under their tolerances; a fit stopped by the iteration cap is NOT converged). \
+         E = −log p(Y|X) + dynamics + connectivity + signal prior, as minimised; <i>exact conn.</i> is the exact \
+         connectivity prior at the same point (the reference for a cheaper path).</p>",
+        fits.len()
+    );
+    let head: Vec<String> = [
+        "label", "N", "d", "path", "iterations", "evaluations", "seconds", "E", "−log p(Y|X)", "dynamics",
+        "connectivity", "signal", "exact conn.", "rel. decrease", "rel. gradient", "stopped",
+    ]
+    .iter()
+    .map(|h| h.to_string())
+    .collect();
+    let num = |v: String| (v, false, true);
+    let rows: Vec<Vec<(String, bool, bool)>> = fits
+        .iter()
+        .map(|f| {
+            let stop = if f.converged { f.stop_reason.clone() } else { format!("NOT converged: {}", f.stop_reason) };
+            vec![
+                text(&esc(&f.label)),
+                num(f.frames.to_string()),
+                num(f.d.to_string()),
+                text(&esc(&format!("{} ({})", f.path, f.optimizer))),
+                num(esc(&f.iterations)),
+                num(f.evaluations.to_string()),
+                num(format!("{:.1}", f.seconds)),
+                num(format!("{:.2}", f.objective)),
+                num(format!("{:.2}", f.likelihood)),
+                num(format!("{:.2}", f.dynamics)),
+                num(format!("{:.2}", f.connectivity)),
+                num(format!("{:.2}", f.signal)),
+                num(format!("{:.2}", f.connectivity_exact)),
+                num(format!("{:.1e}", f.rel_decrease)),
+                num(format!("{:.1e}", f.rel_gradient)),
+                text(&esc(&stop)),
+            ]
+        })
+        .collect();
+    table(s, "fits", &head, &rows);
 }
 
 fn text(c: &str) -> (String, bool, bool) {
@@ -461,7 +544,9 @@ fn figures(s: &mut String, p: &Page<'_>, m: &[Metric], ctx: &report::Context<'_>
          speed, aligned at the first frame of the target label.</p><div id='velocity'>{}</div>",
         charts::speed(&p.speed)
     );
-    let _ = write!(s, "<h3>Did the GPLVM fits converge?</h3><div id='traces'>{}</div>", charts::fit_traces(&p.traces));
+    *s += "<h3>Did the GPLVM fits converge?</h3>";
+    fit_table(s, &p.fits);
+    let _ = write!(s, "<div id='traces'>{}</div>", charts::fit_traces(&p.traces));
     let _ = write!(
         s,
         "<h3>Latent spaces and the bridges between them (the paper's Fig. 2)</h3><p>Each label's training latents, \

@@ -24,6 +24,7 @@ use reprise_numerics::gplvm::{
     ConnectivityParams, ConnectivityPath, DynamicsParams, Fit, FitConfig, FitData, Jitter, LikelihoodConfig, Optimizer,
 };
 use reprise_numerics::optim::{Convergence, StopReason};
+use reprise_numerics::lbfgs::LbfgsOptions;
 use reprise_numerics::scg::ScgOptions;
 use reprise_stagekit::{StageError, StageResult};
 use serde::Serialize;
@@ -58,6 +59,10 @@ pub enum PathKind {
     Staged,
     /// The subset prior throughout.
     Subset,
+    /// The coarse-graph prior throughout (runs of --connectivity-stride frames as one node).
+    Coarse,
+    /// Exact for labels of at most 300 frames, coarse above.
+    Auto,
 }
 
 /// `reprise-gplvm`: one GPLVM per label.
@@ -116,6 +121,13 @@ pub struct Args {
     /// converged.
     #[arg(long, default_value_t = 10_000)]
     pub max_iters: usize,
+    /// Optimise the latents whitened by the dynamics prior, X = L_t Z per segment (the same
+    /// objective and optimum; its conditioning is what lets the fits converge).
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    pub whiten: bool,
+    /// L-BFGS: correction pairs kept (its memory).
+    #[arg(long, default_value_t = 10)]
+    pub lbfgs_memory: usize,
     /// `converged`: window W of accepted iterations for the relative-decrease test.
     #[arg(long, default_value_t = 10)]
     pub window: usize,
@@ -192,11 +204,15 @@ pub struct Args {
     pub connectivity_scale_with_n: bool,
     /// How the connectivity prior enters the fit: `exact` throughout; `staged` (the prior
     /// on every --connectivity-stride-th frame to convergence, then the exact prior to
-    /// convergence); `subset` (the subset prior throughout, exact only reported).
-    #[arg(long, value_enum, default_value_t = PathKind::Staged)]
+    /// convergence); `subset` (the subset prior throughout, exact only reported);
+    /// `coarse` (the prior of the graph whose nodes are runs of --connectivity-stride
+    /// consecutive frames, every frame keeping its own weights: ≈ stride⁻³ of the exact
+    /// cost, value within about 1 % of it; exact also reported); `auto` (exact for labels
+    /// of at most 300 frames, coarse above).
+    #[arg(long, value_enum, default_value_t = PathKind::Auto)]
     pub connectivity_path: PathKind,
-    /// Stride of the subset for `staged` and `subset`.
-    #[arg(long, default_value_t = 2)]
+    /// Stride of the subset for `staged` and `subset`; frames per node for `coarse`/`auto`.
+    #[arg(long, default_value_t = 3)]
     pub connectivity_stride: usize,
 
     /// Held-out check: leave out every K-th frame of each label (0: off).
@@ -245,15 +261,23 @@ impl Args {
                 PathKind::Exact => ConnectivityPath::Exact,
                 PathKind::Staged => ConnectivityPath::Staged { stride: self.connectivity_stride },
                 PathKind::Subset => ConnectivityPath::Subset { stride: self.connectivity_stride },
+                PathKind::Coarse => ConnectivityPath::Coarse { size: self.connectivity_stride },
+                PathKind::Auto => ConnectivityPath::Auto { size: self.connectivity_stride },
             },
             optimizer: self.optimizer(),
+            whiten: self.whiten,
         }
     }
 
     fn optimizer(&self) -> Optimizer {
         let convergence = Convergence { window: self.window, ftol: self.rel_ftol, gtol: self.rel_gtol, f_typical: 1.0 };
         match (self.optimizer, self.stop) {
-            (OptimizerKind::Lbfgs, _) => Optimizer::lbfgs(convergence, self.max_iters),
+            (OptimizerKind::Lbfgs, _) => Optimizer::Lbfgs(LbfgsOptions {
+                memory: self.lbfgs_memory,
+                max_iters: self.max_iters,
+                convergence,
+                ..Default::default()
+            }),
             (OptimizerKind::Scg, StopRule::Converged) => Optimizer::scg(convergence, self.max_iters),
             (OptimizerKind::Scg, StopRule::Netlab) => Optimizer::Scg(ScgOptions {
                 max_iters: self.max_iters,
@@ -267,9 +291,10 @@ impl Args {
 
     fn validate(&self) -> StageResult<()> {
         let pos = |v: f64| v.is_finite() && v > 0.0;
-        let checks: [(bool, &str); 13] = [
+        let checks: [(bool, &str); 14] = [
             (self.q >= 1, "--q must be at least 1"),
             (self.max_iters >= 1, "--max-iters must be at least 1"),
+            ((1..=1000).contains(&self.lbfgs_memory), "--lbfgs-memory must be between 1 and 1000"),
             (pos(self.xtol) && pos(self.ftol), "--xtol and --ftol must be positive"),
             (
                 self.window >= 1 && pos(self.rel_ftol) && pos(self.rel_gtol),
@@ -473,19 +498,21 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
                     d: l.d as i64,
                     q: config.q as i64,
                     optimizer: config.optimizer.name().into(),
-                    connectivity_path: config.connectivity_path.name().into(),
+                    connectivity_path: config.connectivity_path.for_frames(l.n()).name().into(),
                     stage_iterations: fit.stage_iterations.iter().map(|&i| i as i64).collect(),
                     iterations: fit.info.iterations as i64,
                     evaluations: fit.info.evaluations as i64,
                     initial_objective: fit.initial.value,
-                    objective: fit.last.value,
-                    neg_log_likelihood: fit.last.likelihood,
-                    dynamics: fit.last.dynamics,
-                    connectivity: fit.last.connectivity,
+                    objective: fit.minimised.value,
+                    neg_log_likelihood: fit.minimised.likelihood,
+                    dynamics: fit.minimised.dynamics,
+                    connectivity: fit.minimised.connectivity,
+                    signal: fit.minimised.signal,
+                    connectivity_exact: fit.last.connectivity,
                     grad_norm: fit.info.grad_norm,
                     rel_decrease: fit.info.measures.rel_decrease,
                     rel_gradient: fit.info.measures.rel_gradient,
-                    jitter: fit.last.jitter.added,
+                    jitter: fit.minimised.jitter.added,
                     dynamics_jitter: fit.dynamics_jitter.map_or(0.0, |j| j.added),
                     converged: fit.info.converged,
                     stop_reason: fit.info.reason.name().into(),

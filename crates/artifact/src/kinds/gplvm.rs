@@ -272,7 +272,7 @@ pub struct FitSummary {
     pub q: i64,
     /// The optimiser (`lbfgs`, `scg`).
     pub optimizer: String,
-    /// How the connectivity prior entered the fit (`exact`, `staged`, `subset`).
+    /// How the connectivity prior entered the fit (`exact`, `staged`, `subset`, `coarse`).
     pub connectivity_path: String,
     /// Iterations per stage of the fit (one entry, or the subset stage then the exact one),
     /// written as `stage_iterations` = "i1+i2".
@@ -283,14 +283,19 @@ pub struct FitSummary {
     pub evaluations: i64,
     /// Objective $E$ at the start.
     pub initial_objective: f64,
-    /// Objective $E$ at the optimum: the sum of the next three.
+    /// The objective $E$ the optimiser minimised, at the optimum: the sum of the next four.
     pub objective: f64,
     /// $-\log p(Y\mid X)$ at the optimum.
     pub neg_log_likelihood: f64,
     /// $-\psi_D$ at the optimum (0 without the prior).
     pub dynamics: f64,
-    /// $-\psi_C$ at the optimum (0 without the prior).
+    /// $-\psi_C$ at the optimum as the fit computed it (the path's prior; 0 without it).
     pub connectivity: f64,
+    /// $E_S$, the signal prior on $\sigma_f^2$, at the optimum (0 without it).
+    pub signal: f64,
+    /// The exact connectivity prior at the optimum (= `connectivity` on the `exact` and
+    /// `staged` paths; the reference for the cheaper ones).
+    pub connectivity_exact: f64,
     /// $\lVert\nabla E\rVert_2$ at the optimum.
     pub grad_norm: f64,
     /// The convergence rule's mean relative decrease of $E$ per iteration over its
@@ -340,6 +345,8 @@ pub fn write_fits(path: &Path, rows: &[FitSummary], provenance: &Provenance) -> 
         .f64("neg_log_likelihood", x(|r| r.neg_log_likelihood))
         .f64("dynamics", x(|r| r.dynamics))
         .f64("connectivity", x(|r| r.connectivity))
+        .f64("signal", x(|r| r.signal))
+        .f64("connectivity_exact", x(|r| r.connectivity_exact))
         .f64("grad_norm", x(|r| r.grad_norm))
         .f64("rel_decrease", x(|r| r.rel_decrease))
         .f64("rel_gradient", x(|r| r.rel_gradient))

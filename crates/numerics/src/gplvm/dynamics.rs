@@ -162,6 +162,45 @@ impl DynamicsPrior {
         self.constant
     }
 
+    /// The whitening map $X = L_tZ$ ($K_t = L_tL_t^\top$ block by block, row-major `N × q`):
+    /// in $Z$ the prior is $\tfrac w2\lVert Z\rVert_F^2$ + const, perfectly conditioned,
+    /// which is why the fit optimises $Z$ (see `fit`).
+    pub fn unwhiten(&self, z: &[f64], x: &mut [f64]) {
+        let q = self.q;
+        for b in &self.blocks {
+            for (a, &i) in b.rows.iter().enumerate().rev() {
+                for k in 0..q {
+                    x[i * q + k] = (0..=a).map(|c| b.chol[(a, c)] * z[b.rows[c] * q + k]).sum();
+                }
+            }
+        }
+    }
+
+    /// $Z = L_t^{-1}X$, the inverse of [`Self::unwhiten`].
+    pub fn whiten(&self, x: &[f64], z: &mut [f64]) {
+        let q = self.q;
+        for b in &self.blocks {
+            for (a, &i) in b.rows.iter().enumerate() {
+                for k in 0..q {
+                    let done: f64 = (0..a).map(|c| b.chol[(a, c)] * z[b.rows[c] * q + k]).sum();
+                    z[i * q + k] = (x[i * q + k] - done) / b.chol[(a, a)];
+                }
+            }
+        }
+    }
+
+    /// The gradient in $Z$ from the gradient in $X = L_tZ$: $\nabla_Z = L_t^\top\nabla_X$.
+    pub fn grad_to_white(&self, gx: &[f64], gz: &mut [f64]) {
+        let q = self.q;
+        for b in &self.blocks {
+            for (c, &j) in b.rows.iter().enumerate() {
+                for k in 0..q {
+                    gz[j * q + k] = (c..b.rows.len()).map(|a| b.chol[(a, c)] * gx[b.rows[a] * q + k]).sum();
+                }
+            }
+        }
+    }
+
     /// Returns $E_D(X)$ and **adds** $\nabla_X E_D = wK_t^{-1}X$ to `grad` (row-major `N × q`).
     pub fn value_grad_add(&mut self, x: &[f64], grad: &mut [f64]) -> Result<f64, GplvmError> {
         let (n, q) = (self.n, self.q);
@@ -235,6 +274,34 @@ mod tests {
     /// Blocks are independent: moving a point of one segment (in latent dimension 0)
     /// changes the dimension-0 gradient of every point of its segment and of no other, and
     /// never the dimension-1 gradient (latent dimensions are independent too).
+    /// Whitening: unwhiten ∘ whiten is the identity, the prior in Z is w/2 ‖Z‖² + const,
+    /// and grad_to_white is the transpose of unwhiten (⟨L z, g⟩ = ⟨z, Lᵀg⟩).
+    #[test]
+    fn whitening_round_trips_and_is_adjoint() {
+        let (n, q) = (23, 2);
+        let times: Vec<f64> = (0..n).map(|i| (i / 3) as f64).collect();
+        let seg: Vec<usize> = (0..n).map(|i| i % 3).collect();
+        let p = DynamicsParams { lengthscale: 2.0, weight: 0.7, ..Default::default() };
+        let mut prior = DynamicsPrior::new(&times, &seg, q, p).unwrap();
+        let x: Vec<f64> = (0..n * q).map(|i| ((i * 37 % 11) as f64 - 5.0) / 3.0).collect();
+        let (mut z, mut back) = (vec![0.0; n * q], vec![0.0; n * q]);
+        prior.whiten(&x, &mut z);
+        prior.unwhiten(&z, &mut back);
+        assert!(x.iter().zip(&back).all(|(a, b)| (a - b).abs() < 1e-9), "{x:?} {back:?}");
+        let mut g = vec![0.0; n * q];
+        let v = prior.value_grad_add(&x, &mut g).unwrap();
+        let zz: f64 = z.iter().map(|v| v * v).sum();
+        assert!((v - (0.5 * 0.7 * zz + prior.constant())).abs() < 1e-8 * v.abs(), "{v}");
+        let gv: Vec<f64> = (0..n * q).map(|i| ((i * 13 % 7) as f64 - 3.0) / 2.0).collect();
+        let mut lz = vec![0.0; n * q];
+        prior.unwhiten(&z, &mut lz);
+        let mut ltg = vec![0.0; n * q];
+        prior.grad_to_white(&gv, &mut ltg);
+        let lhs: f64 = lz.iter().zip(&gv).map(|(a, b)| a * b).sum();
+        let rhs: f64 = z.iter().zip(&ltg).map(|(a, b)| a * b).sum();
+        assert!((lhs - rhs).abs() < 1e-10 * lhs.abs().max(1.0), "{lhs} {rhs}");
+    }
+
     #[test]
     fn blocks_do_not_interact() {
         let (n, q) = (30, 2);

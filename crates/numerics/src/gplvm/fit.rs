@@ -22,7 +22,7 @@
 
 use super::params::JitterUsed;
 use super::{
-    subset_rows, ConnectivityParams, ConnectivityPrior, DynamicsParams, DynamicsPrior, EvalInfo, GplvmError, Hyper,
+    coarse_groups, subset_rows, ConnectivityParams, ConnectivityPrior, DynamicsParams, DynamicsPrior, EvalInfo, GplvmError, Hyper,
     Likelihood, LikelihoodConfig, Objective, Predictor, SignalPrior,
 };
 use crate::lbfgs::{lbfgs, LbfgsOptions};
@@ -116,23 +116,68 @@ pub enum ConnectivityPath {
         /// Subset stride.
         stride: usize,
     },
+    /// The coarse-graph prior throughout ([`ConnectivityPrior::coarse`]: runs of `size`
+    /// consecutive frames of a segment as one node, every frame keeping its own weights):
+    /// an approximation of the exact prior at about `size`⁻³ of its cost; the exact one is
+    /// also evaluated at the end, for the report.
+    Coarse {
+        /// Frames per node (2 halves the eigenproblem).
+        size: usize,
+    },
+    /// The exact prior for labels of at most [`ConnectivityPath::AUTO_EXACT_FRAMES`]
+    /// frames (where it costs about as much as the likelihood), the coarse one above.
+    Auto {
+        /// Frames per node of the coarse graph.
+        size: usize,
+    },
 }
 
 impl ConnectivityPath {
-    /// `"exact"`, `"staged"` or `"subset"`.
+    /// The largest label `Auto` fits with the exact prior.
+    pub const AUTO_EXACT_FRAMES: usize = 300;
+
+    /// The path a label of `n` frames takes (`Auto` resolved; the others as they are).
+    pub fn for_frames(self, n: usize) -> Self {
+        match self {
+            Self::Auto { .. } if n <= Self::AUTO_EXACT_FRAMES => Self::Exact,
+            Self::Auto { size } => Self::Coarse { size },
+            other => other,
+        }
+    }
+
+    /// `"exact"`, `"staged"`, `"subset"`, `"coarse"` or `"auto"`.
     pub fn name(&self) -> &'static str {
         match self {
             Self::Exact => "exact",
             Self::Staged { .. } => "staged",
             Self::Subset { .. } => "subset",
+            Self::Coarse { .. } => "coarse",
+            Self::Auto { .. } => "auto",
         }
     }
 
-    fn stride(&self) -> Option<usize> {
+    /// The cheaper prior the fit starts with (to the end, unless staged), if any.
+    fn cheap_prior(
+        &self,
+        params: ConnectivityParams,
+        data: &FitData<'_>,
+        q: usize,
+    ) -> Result<Option<ConnectivityPrior>, GplvmError> {
+        let n = data.times.len();
         match *self {
-            Self::Exact => None,
-            Self::Staged { stride } | Self::Subset { stride } => Some(stride),
+            Self::Exact | Self::Auto { .. } => Ok(None),
+            Self::Staged { stride } | Self::Subset { stride } => {
+                ConnectivityPrior::on_subset(n, subset_rows(data.times, data.segments, stride), q, params).map(Some)
+            }
+            Self::Coarse { size } => {
+                ConnectivityPrior::coarse(coarse_groups(data.times, data.segments, size), q, params).map(Some)
+            }
         }
+    }
+
+    /// Whether the exact prior takes over after the cheap one has converged.
+    fn ends_exact(&self) -> bool {
+        matches!(self, Self::Exact | Self::Staged { .. })
     }
 }
 
@@ -169,6 +214,9 @@ pub struct FitConfig {
     pub connectivity_path: ConnectivityPath,
     /// The optimiser (its convergence rule's $f_{typ}$ is set to $N\cdot d$ by [`fit`]).
     pub optimizer: Optimizer,
+    /// Optimise the whitened latents $Z$, $X = L_tZ$ (default true; only with the
+    /// dynamics prior): the same objective, far better conditioned (see `Coordinates`).
+    pub whiten: bool,
 }
 
 impl Default for FitConfig {
@@ -184,6 +232,7 @@ impl Default for FitConfig {
             connectivity: Some(ConnectivityParams::default()),
             connectivity_path: ConnectivityPath::Exact,
             optimizer: Optimizer::default(),
+            whiten: true,
         }
     }
 }
@@ -222,8 +271,11 @@ pub struct Fit {
     pub trace: Vec<OptIter>,
     /// The objective's parts at the start.
     pub initial: EvalInfo,
-    /// The objective's parts at the optimum.
+    /// The objective's parts at the optimum, with the exact connectivity prior.
     pub last: EvalInfo,
+    /// The parts of the objective the optimiser minimised, at the optimum: [`Self::last`]
+    /// unless the fit ended on a cheaper connectivity prior (`coarse`, `subset`).
+    pub minimised: EvalInfo,
     /// Jitter the dynamics prior's blocks needed (`None` without the prior).
     pub dynamics_jitter: Option<JitterUsed>,
 }
@@ -303,7 +355,8 @@ pub struct Evaluation<'a> {
     /// The flat parameter vector evaluated ([`super::Layout`]: $X$ row-major, then the log
     /// hyperparameters).
     pub params: &'a [f64],
-    /// The gradient there, as the optimiser saw it (the fixed $\log\ell$ entry zeroed).
+    /// The gradient there, as the optimiser saw it (in its coordinates: of the whitened
+    /// latents when [`FitConfig::whiten`]; the fixed $\log\ell$ entry zeroed).
     pub grad: &'a [f64],
     /// The objective's parts there.
     pub info: &'a EvalInfo,
@@ -355,17 +408,17 @@ pub fn fit_observed(
     let dynamics = config.dynamics.map(|p| DynamicsPrior::new(data.times, data.segments, q, p)).transpose()?;
     let dynamics_jitter = dynamics.as_ref().map(DynamicsPrior::jitter_used);
     let connectivity = config.connectivity.map(|p| ConnectivityPrior::new(n, q, p)).transpose()?;
-    let subset = match (config.connectivity, config.connectivity_path.stride()) {
-        (Some(p), Some(stride)) => {
-            Some(ConnectivityPrior::on_subset(n, subset_rows(data.times, data.segments, stride), q, p)?)
-        }
-        _ => None,
+    let path = config.connectivity_path.for_frames(n);
+    let cheap = match config.connectivity {
+        Some(p) => path.cheap_prior(p, &data, q)?,
+        None => None,
     };
     if !(config.signal_prior_sd >= 0.0 && config.signal_prior_sd.is_finite()) {
         return Err(GplvmError::Params(format!("signal_prior_sd must be >= 0, got {}", config.signal_prior_sd)));
     }
     let signal = (config.signal_prior_sd > 0.0)
         .then_some(SignalPrior { median: hyper0.rbf_variance, log_sd: config.signal_prior_sd });
+    let coords = Coordinates { white: dynamics.clone().filter(|_| config.whiten), nq: n * q };
     let mut objective = Objective::new(likelihood, dynamics, connectivity)?.with_signal_prior(signal)?;
     let layout = objective.layout();
     let p0 = layout.pack(&x0, &hyper0);
@@ -373,26 +426,33 @@ pub fn fit_observed(
     let initial = objective.try_evaluate(&p0, &mut grad)?;
     let optimizer = config.optimizer.with_f_typical((n * d) as f64);
     let mut runs = Vec::new();
-    let mut start = p0;
+    let mut start = coords.to_optimiser(&p0);
     // The log ℓ entry, whose gradient is zeroed when ℓ is fixed (so no optimiser moves it).
     let fixed = config.fix_lengthscale.then_some(n * q + 1);
-    if let Some(subset) = subset {
-        let exact = objective.set_connectivity(Some(subset));
-        runs.push(optimise(&mut objective, &optimizer, &start, fixed, &mut on_evaluation)?);
+    let mut fitted = None;
+    if let Some(cheap) = cheap {
+        let exact = objective.set_connectivity(Some(cheap));
+        runs.push(optimise(&mut objective, &coords, &optimizer, &start, fixed, &mut on_evaluation)?);
+        fitted = Some(objective.try_evaluate(&coords.to_model(&runs[0].x), &mut grad)?);
         objective.set_connectivity(exact);
         start = runs[0].x.clone();
     }
-    // The cap is for the whole fit: the exact stage gets what the subset stage left.
+    // The cap is for the whole fit: the exact stage gets what the cheap stage left.
     let left = optimizer.max_iters() - runs.first().map_or(0, |r| r.info.iterations);
-    if runs.is_empty() || (left > 0 && !matches!(config.connectivity_path, ConnectivityPath::Subset { .. })) {
+    if runs.is_empty() || (left > 0 && path.ends_exact()) {
         let optimizer = optimizer.with_max_iters(left);
-        runs.push(optimise(&mut objective, &optimizer, &start, fixed, &mut on_evaluation)?);
+        runs.push(optimise(&mut objective, &coords, &optimizer, &start, fixed, &mut on_evaluation)?);
     }
     let result = merge(runs);
+    let point = coords.to_model(&result.0.x);
     // The optimiser's last call may have been a rejected trial: evaluate the returned point.
-    let last = objective.try_evaluate(&result.0.x, &mut grad)?;
-    let hyper = layout.hyper(&result.0.x);
-    let x = layout.x(&result.0.x).to_vec();
+    let last = objective.try_evaluate(&point, &mut grad)?;
+    let minimised = match fitted {
+        Some(cheap) if !path.ends_exact() => cheap,
+        _ => last.clone(),
+    };
+    let hyper = layout.hyper(&point);
+    let x = layout.x(&point).to_vec();
     let predictor = Predictor::new(&x, &y, d, hyper, &lik_config)?;
     let (result, stage_iterations) = result;
     Ok(Fit {
@@ -405,14 +465,58 @@ pub fn fit_observed(
         trace: result.trace,
         initial,
         last,
+        minimised,
         dynamics_jitter,
     })
 }
 
-/// One optimiser run on `objective` (with the parameter `fixed` held); a NaN stops it
-/// with [`GplvmError::Diverged`].
+/// The coordinates the optimiser moves: the model's ($X$ and the log hyperparameters), or,
+/// with the dynamics prior, its whitened latents $Z$ with $X = L_tZ$ per segment
+/// ([`DynamicsPrior::unwhiten`]). The map is linear and invertible, so the objective, its
+/// minimisers and the fit are the same; what changes is the conditioning: $K_t^{-1}$ of a
+/// smooth time kernel with a small white term has a condition number of $10^4$–$10^6$,
+/// which in $X$ makes L-BFGS crawl along the stiff, high-frequency-in-time directions,
+/// while in $Z$ the prior's Hessian is $wI$.
+struct Coordinates {
+    white: Option<DynamicsPrior>,
+    /// $N q$: the latents come first in the parameter vector.
+    nq: usize,
+}
+
+impl Coordinates {
+    /// Model parameters from the optimiser's.
+    fn to_model(&self, p: &[f64]) -> Vec<f64> {
+        let mut out = p.to_vec();
+        if let Some(w) = &self.white {
+            w.unwhiten(&p[..self.nq], &mut out[..self.nq]);
+        }
+        out
+    }
+
+    /// The optimiser's parameters from the model's.
+    fn to_optimiser(&self, p: &[f64]) -> Vec<f64> {
+        let mut out = p.to_vec();
+        if let Some(w) = &self.white {
+            w.whiten(&p[..self.nq], &mut out[..self.nq]);
+        }
+        out
+    }
+
+    /// The gradient in the optimiser's coordinates, in place, from the model's.
+    fn grad_to_optimiser(&self, g: &mut [f64], scratch: &mut Vec<f64>) {
+        if let Some(w) = &self.white {
+            scratch.clear();
+            scratch.extend_from_slice(&g[..self.nq]);
+            w.grad_to_white(scratch, &mut g[..self.nq]);
+        }
+    }
+}
+
+/// One optimiser run on `objective` in `coords` (with the parameter `fixed` held); a NaN
+/// stops it with [`GplvmError::Diverged`].
 fn optimise(
     objective: &mut Objective,
+    coords: &Coordinates,
     optimizer: &Optimizer,
     start: &[f64],
     fixed: Option<usize>,
@@ -420,9 +524,12 @@ fn optimise(
 ) -> Result<OptResult, GplvmError> {
     let mut evaluations = 0;
     let mut failure = None;
+    let mut scratch = Vec::new();
     let result = optimizer.run(
         |p, g| {
-            let v = objective.evaluate(p, g);
+            let model = coords.to_model(p);
+            let v = objective.evaluate(&model, g);
+            coords.grad_to_optimiser(g, &mut scratch);
             if let Some(i) = fixed {
                 g[i] = 0.0;
             }
@@ -430,7 +537,7 @@ fn optimise(
             if v.is_nan() && failure.is_none() {
                 failure = objective.last().error.clone();
             }
-            on_evaluation(Evaluation { params: p, grad: g, info: objective.last() });
+            on_evaluation(Evaluation { params: &model, grad: g, info: objective.last() });
             v
         },
         start,
@@ -542,33 +649,49 @@ mod tests {
         );
     }
 
-    /// Under the default configuration (L-BFGS, the window rule, both priors, the staged
-    /// connectivity path) a small fit converges for the rule's reason: the measures are
-    /// below the tolerances, the trace's last window really is flat, and it stops well
-    /// before the cap. SCG on the exact path converges by the same rule to a similar
-    /// objective.
+    /// Under the stage's configuration (L-BFGS, the window rule, both priors) a small fit
+    /// converges for the rule's reason on the coarse path and on the staged one: the
+    /// measures are below the tolerances, the trace's last window really is flat, and it
+    /// stops well before the cap; the coarse fit reports the exact prior at its optimum
+    /// beside the one it minimised. SCG on the exact path converges by the same rule to a
+    /// similar objective.
     #[test]
     fn default_fit_converges_for_the_right_reason() {
         let (n, d) = (60, 5);
         let (y, times, segs) = data(n, d);
-        let config = FitConfig {
-            connectivity: Some(ConnectivityParams { weight: 1e-3, ..Default::default() }),
-            connectivity_path: ConnectivityPath::Staged { stride: 2 },
-            likelihood: LikelihoodConfig { white_floor: 1e-3, ..Default::default() },
-            ..Default::default()
-        };
-        let data = FitData { y: &y, d, times: &times, segments: &segs };
-        let f = fit(data, &config, |_| ()).unwrap();
         let rule = Convergence::default();
-        eprintln!("{:?} stages {:?}", f.info, f.stage_iterations);
-        assert_eq!((f.info.reason, f.info.converged), (StopReason::Converged, true));
-        assert_eq!(f.stage_iterations.len(), 2);
-        assert!(f.info.measures.rel_gradient <= rule.gtol && f.info.measures.rel_decrease <= rule.ftol);
-        assert!(f.info.iterations < 2000, "{:?}", f.info);
-        let tail = &f.trace[f.trace.len() - rule.window - 1..];
-        let scale = f.info.value.abs().max((n * d) as f64);
-        assert!((tail[0].value - f.info.value) / scale <= rule.window as f64 * rule.ftol);
-        assert_eq!(f.trace.len(), f.info.iterations);
+        let data = FitData { y: &y, d, times: &times, segments: &segs };
+        let mut last = None;
+        for path in [ConnectivityPath::Coarse { size: 3 }, ConnectivityPath::Staged { stride: 2 }] {
+            let config = FitConfig {
+                connectivity: Some(ConnectivityParams { weight: 1e-3, ..Default::default() }),
+                connectivity_path: path,
+                likelihood: LikelihoodConfig { white_floor: 1e-3, ..Default::default() },
+                ..Default::default()
+            };
+            let f = fit(data, &config, |_| ()).unwrap();
+            eprintln!("{path:?}: {:?} stages {:?}", f.info, f.stage_iterations);
+            assert_eq!((f.info.reason, f.info.converged), (StopReason::Converged, true));
+            assert_eq!(f.stage_iterations.len(), if path.ends_exact() { 2 } else { 1 });
+            assert!(f.info.measures.rel_gradient <= rule.gtol && f.info.measures.rel_decrease <= rule.ftol);
+            assert!(f.info.iterations < 2000, "{:?}", f.info);
+            let tail = &f.trace[f.trace.len() - rule.window - 1..];
+            let scale = f.info.value.abs().max((n * d) as f64);
+            assert!((tail[0].value - f.info.value) / scale <= rule.window as f64 * rule.ftol);
+            assert_eq!(f.trace.len(), f.info.iterations);
+            assert!((f.minimised.value - f.info.value).abs() <= 1e-9 * f.info.value.abs());
+            if path.ends_exact() {
+                assert_eq!(f.minimised.value, f.last.value);
+            } else {
+                // The same point, the exact prior in place of the coarse one.
+                assert_eq!(f.minimised.likelihood, f.last.likelihood);
+                assert!(f.minimised.connectivity != f.last.connectivity);
+                let rel = (f.minimised.connectivity - f.last.connectivity).abs() / f.last.connectivity.abs();
+                assert!(rel < 0.05, "coarse prior {} vs exact {}", f.minimised.connectivity, f.last.connectivity);
+            }
+            last = Some((config, f));
+        }
+        let (config, f) = last.unwrap();
         let scg_config = FitConfig {
             connectivity_path: ConnectivityPath::Exact,
             optimizer: Optimizer::scg(Convergence::default(), 10_000),
