@@ -11,7 +11,7 @@ use crate::util::Project;
 fn short(p: &Project, iters: usize) {
     let toml = p
         .read("pipeline.toml")
-        .replace("max_iters = 5000", &format!("max_iters = {iters}"))
+        .replace("max_iters = 10000", &format!("max_iters = {iters}"))
         .replace("stride = 1", "stride = 5");
     assert!(toml.contains(&format!("max_iters = {iters}")), "the default pipeline sets max_iters");
     p.write("pipeline.toml", &toml);

@@ -18,7 +18,7 @@ fn robot_expressive_through_gplvm() {
         .replace("../../../shared/datasets/robot_expressive/RobotExpressive.glb", &glb.display().to_string())
         .replace("../../artifacts", "artifacts")
         .replace("../../reports", "reports")
-        .replace("max_iters = 5000", "max_iters = 20");
+        .replace("max_iters = 10000", "max_iters = 20");
     p.write("pipeline.toml", &toml);
     p.write("labels.toml", &std::fs::read_to_string(repo().join("datasets/robot-expressive/labels.toml")).unwrap());
     p.write(
