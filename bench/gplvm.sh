@@ -3,7 +3,7 @@
 # GPy comes from ../shared/bench/gpy_ref (its gplvm_ref.py) in a virtualenv this script
 # makes under target/ (about 25 s, wheels only); without either, GPy is skipped and said so.
 #   bench/gplvm.sh            # N = 200, 400, 800, 1600; D = 40; q = 3
-# Then the connectivity prior's paths (exact against the subset at strides 2 and 3: time
+# Then the connectivity prior's paths (exact against the coarse graph of 2- and 3-frame runs and the subset of every other frame: time
 # and error per evaluation, N = 200 … 1600), and the GPy anchor: L-BFGS and SCG from
 # GPy's PCA start to GPy's L-BFGS-B objective on the 600 × 40 reference, against GPy's
 # own L-BFGS-B fit timed in the same run (skipped, with the recorded 32 s, without GPy).

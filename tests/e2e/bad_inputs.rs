@@ -116,8 +116,10 @@ fn a_real_motion_graph_passes_its_checks() {
     g.check_window(12, "--window").unwrap();
     let lf = LabeledFrames::read(&p.path(&format!("{A}/labeled_frames.parquet"))).unwrap();
     g.check_frames(&lf, &p.path("labeled_frames.parquet")).unwrap();
-    let graph =
-        reprise_transition_graph::Graph::from_edges(g.nodes.frame.len(), g.edges.iter().map(|e| (e.from, e.to, e.cost)));
+    let graph = reprise_transition_graph::Graph::from_edges(
+        g.nodes.frame.len(),
+        g.edges.iter().map(|e| (e.from, e.to, e.cost)),
+    );
     assert!(graph.is_ok());
 }
 

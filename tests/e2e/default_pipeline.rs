@@ -11,7 +11,8 @@ use crate::util::Project;
 fn dragon_face_through_label_then_cached_then_one_param_changed() {
     let p = Project::dragon_face();
     // The whole README pipeline, with a short GPLVM fit (the default budget is benchmarked).
-    let toml = p.read("pipeline.toml").replace("max_iters = 10000", "max_iters = 10").replace("stride = 1", "stride = 5");
+    let toml =
+        p.read("pipeline.toml").replace("max_iters = 10000", "max_iters = 10").replace("stride = 1", "stride = 5");
     p.write("pipeline.toml", &toml.replace("heldout_every = 10", "heldout_every = 0"));
     let first = p.reprise(&["run"]).ok();
     assert!(

@@ -197,10 +197,11 @@ fn transitions_refuses_a_graph_that_does_not_belong(p: &Project) {
         .flat_map(|(flag, file)| [format!("--{flag}"), format!("{A}/{file}.parquet")])
         .collect();
         v.extend(["--mg-edges".into(), edges.into(), "--window".into(), window.into()]);
-        for out in ["requests", "reprise-answers", "reprise-curves", "reprise-reseeded"]
-            .into_iter()
-            .chain(["baseline-answers", "baseline-curves", "baseline-reseeded"])
-        {
+        for out in ["requests", "reprise-answers", "reprise-curves", "reprise-reseeded"].into_iter().chain([
+            "baseline-answers",
+            "baseline-curves",
+            "baseline-reseeded",
+        ]) {
             v.extend([format!("--{out}"), format!("out/t/{out}.parquet")]);
         }
         v
@@ -211,9 +212,13 @@ fn transitions_refuses_a_graph_that_does_not_belong(p: &Project) {
     let wide = run(args("24", &edges)).fails(reprise_stagekit::exit::INPUT);
     assert!(wide.contains("mg_nodes.parquet") && wide.contains("built with window 12"), "{wide}");
 
-    let other = crate::bad_inputs::motion_graph("other", &format!("{A}/labeled_frames.parquet"), &["--quantile", "0.2"]);
+    let other =
+        crate::bad_inputs::motion_graph("other", &format!("{A}/labeled_frames.parquet"), &["--quantile", "0.2"]);
     p.stage("reprise-motion-graph", &other.iter().map(String::as_str).collect::<Vec<_>>()).ok();
     let mixed = run(args("12", "out/other/e.parquet")).fails(reprise_stagekit::exit::INPUT);
     assert!(mixed.contains("out/other/e.parquet") && mixed.contains("mg_nodes.parquet"), "{mixed}");
-    assert!(!p.path("out/t").exists() || std::fs::read_dir(p.path("out/t")).unwrap().next().is_none(), "nothing written");
+    assert!(
+        !p.path("out/t").exists() || std::fs::read_dir(p.path("out/t")).unwrap().next().is_none(),
+        "nothing written"
+    );
 }

@@ -31,15 +31,14 @@ fn a_flipped_bit_never_reads_as_other_data() {
     let data_end = original.len() - 8 - footer;
     let (mut corrupt, mut other) = (0, 0);
     for byte in (4..data_end).step_by(2) {
-        for bit in [byte % 8] {
-            let mut bytes = original.clone();
-            bytes[byte] ^= 1 << bit;
-            std::fs::write(&path, &bytes).unwrap();
-            match Table::read(&path, KIND) {
-                Ok(t) => assert_eq!(content(&t), expected, "byte {byte} bit {bit} read back different data"),
-                Err(ArtifactError::Corrupt { .. }) => corrupt += 1,
-                Err(_) => other += 1,
-            }
+        let bit = byte % 8;
+        let mut bytes = original.clone();
+        bytes[byte] ^= 1 << bit;
+        std::fs::write(&path, &bytes).unwrap();
+        match Table::read(&path, KIND) {
+            Ok(t) => assert_eq!(content(&t), expected, "byte {byte} bit {bit} read back different data"),
+            Err(ArtifactError::Corrupt { .. }) => corrupt += 1,
+            Err(_) => other += 1,
         }
     }
     assert!(corrupt > 0, "no flip reached the checksum ({other} failed otherwise)");

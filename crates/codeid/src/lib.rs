@@ -178,7 +178,9 @@ pub fn emit(var: &str, crates: &[&Path], extra: &[&Path]) {
             println!("cargo:rustc-env={var}={}", id.hex);
         }
         Err(e) => {
-            println!("cargo:warning=code identity for {var}: {e}; the runner will key this stage on its binary's bytes");
+            println!(
+                "cargo:warning=code identity for {var}: {e}; the runner will key this stage on its binary's bytes"
+            );
             println!("cargo:rustc-env={var}=unknown");
         }
     }
@@ -403,8 +405,11 @@ mod tests {
         let names: Vec<String> =
             got.watched.iter().map(|p| p.file_name().unwrap().to_string_lossy().into_owned()).collect();
         assert_eq!(names, ["app", "lib", "Cargo.toml", "Cargo.lock"]);
-        fs::write(d.path().join("app/Cargo.toml"), "[package]\nname = \"app\"\n[dependencies]\nnope.workspace = true\n")
-            .unwrap();
+        fs::write(
+            d.path().join("app/Cargo.toml"),
+            "[package]\nname = \"app\"\n[dependencies]\nnope.workspace = true\n",
+        )
+        .unwrap();
         let e = code_id(&[&d.path().join("app")], &[], &Toolchain::default()).unwrap_err().to_string();
         assert!(e.contains("app/Cargo.toml") && e.contains("`nope`"), "{e}");
         let outside = tempfile::tempdir().unwrap();

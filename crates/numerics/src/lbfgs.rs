@@ -86,7 +86,7 @@ fn cubic_step(a: &Probe, b: &Probe) -> f64 {
     }
     let d1 = a.slope + b.slope - 3.0 * (a.f - b.f) / (a.alpha - b.alpha);
     let disc = d1 * d1 - a.slope * b.slope;
-    if !(disc >= 0.0) {
+    if disc.is_nan() || disc < 0.0 {
         return mid;
     }
     let d2 = (b.alpha - a.alpha).signum() * disc.sqrt();
@@ -239,7 +239,7 @@ where
         let found = loop {
             let mut d = direction(&g, &pairs);
             let mut slope = dot(&g, &d);
-            if !(slope < 0.0) {
+            if slope.is_nan() || slope >= 0.0 {
                 pairs.clear();
                 d = g.iter().map(|v| -v).collect();
                 slope = dot(&g, &d);

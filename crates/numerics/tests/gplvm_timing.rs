@@ -197,7 +197,10 @@ fn connectivity_paths() {
     let paths = ["coarse 2", "coarse 3", "subset 2"];
     println!(
         "| N | exact (ms) |{}",
-        paths.iter().map(|p| format!(" {p} (ms) | exact / {p} | value err. | gradient err. | cosine |")).collect::<String>()
+        paths
+            .iter()
+            .map(|p| format!(" {p} (ms) | exact / {p} | value err. | gradient err. | cosine |"))
+            .collect::<String>()
     );
     println!("|---|---|{}", "---|---|---|---|---|".repeat(paths.len()));
     for n in [200, 400, 800, 1600] {

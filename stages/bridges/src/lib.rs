@@ -391,7 +391,6 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
     }))
 }
 
-
 /// What the stage reads and writes, for the runner's wiring by artifact
 /// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
 pub const WIRING: reprise_stagekit::wiring::Wiring = {
@@ -400,15 +399,13 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         stage: "bridges",
         bin: "reprise-bridges",
         inputs: &[
-        wiring::required("gplvm_models", "gplvm_models.parquet"),
-        wiring::required("pca_models", "pca_models.parquet"),
-        wiring::required("scales", "scales.parquet"),
-        wiring::optional("controls", "controls.parquet"),
-        wiring::optional("labeled_frames", "labeled_frames.parquet"),
+            wiring::required("gplvm_models", "gplvm_models.parquet"),
+            wiring::required("pca_models", "pca_models.parquet"),
+            wiring::required("scales", "scales.parquet"),
+            wiring::optional("controls", "controls.parquet"),
+            wiring::optional("labeled_frames", "labeled_frames.parquet"),
         ],
-        outputs: &[
-        wiring::artifact("bridges", "bridges.parquet"),
-        ],
+        outputs: &[wiring::artifact("bridges", "bridges.parquet")],
         derived: &[],
     }
 };

@@ -254,8 +254,22 @@ fn fit_table(s: &mut String, fits: &[FitRow]) {
         fits.len()
     );
     let head: Vec<String> = [
-        "label", "N", "d", "path", "iterations", "evaluations", "seconds", "E", "−log p(Y|X)", "dynamics",
-        "connectivity", "signal", "exact conn.", "rel. decrease", "rel. gradient", "stopped",
+        "label",
+        "N",
+        "d",
+        "path",
+        "iterations",
+        "evaluations",
+        "seconds",
+        "E",
+        "−log p(Y|X)",
+        "dynamics",
+        "connectivity",
+        "signal",
+        "exact conn.",
+        "rel. decrease",
+        "rel. gradient",
+        "stopped",
     ]
     .iter()
     .map(|h| h.to_string())

@@ -407,7 +407,8 @@ fn bridges_gone_through(inp: &Inputs<'_>, p: &Played) -> Vec<(usize, usize, Stri
                     )
                 })
         };
-        let caption = caption.unwrap_or_else(|| format!("switch {l1} → {l2}: no bridge {l1} → {l2} in the bridges table"));
+        let caption =
+            caption.unwrap_or_else(|| format!("switch {l1} → {l2}: no bridge {l1} → {l2} in the bridges table"));
         out.push((t, (t + inp.window).min(model.len()) - 1, caption));
     }
     out

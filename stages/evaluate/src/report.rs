@@ -415,7 +415,10 @@ pub(crate) mod tests {
             // The crossfade's one-frame latency is the lowest, but follows from construction.
             let m = latencies(0.5, 2.0);
             assert_eq!(best(&m, ctx, "latency_s"), Some(Verdict::Best("reprise", false)));
-            assert_eq!(overall_cell(&m, ctx, "crossfade", "latency_s"), format!("{} (by construction)", cell(m.get(3))));
+            assert_eq!(
+                overall_cell(&m, ctx, "crossfade", "latency_s"),
+                format!("{} (by construction)", cell(m.get(3)))
+            );
             assert_eq!(overall_cell(&m, ctx, "reprise", "latency_s"), cell(m.first()));
             let md = markdown(&m, ctx);
             assert!(md.contains("`latency_s` follows from construction"), "{md}");

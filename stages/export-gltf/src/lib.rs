@@ -74,7 +74,6 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<(String, usize)>>> {
     Ok(Some(clips.iter().map(|c| (c.name.clone(), c.values.len() / n.max(1))).collect()))
 }
 
-
 /// What the stage reads and writes, for the runner's wiring by artifact
 /// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
 pub const WIRING: reprise_stagekit::wiring::Wiring = {
@@ -82,13 +81,8 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
     wiring::Wiring {
         stage: "export-gltf",
         bin: "reprise-export-gltf",
-        inputs: &[
-        wiring::required("curves", "curves.parquet"),
-        wiring::required("controls", "controls.parquet"),
-        ],
-        outputs: &[
-        wiring::artifact("glb", "exported.glb"),
-        ],
+        inputs: &[wiring::required("curves", "curves.parquet"), wiring::required("controls", "controls.parquet")],
+        outputs: &[wiring::artifact("glb", "exported.glb")],
         derived: &[],
     }
 };

@@ -87,7 +87,8 @@ impl<'a> Checker<'a> {
             .iter()
             .find(|p| p.label == l.label && p.variant == SCALED)
             .ok_or_else(|| StageError::Input(format!("no scaled PCA model for label `{}`", l.label)))?;
-        let map = reprise_label_models::rig_map(pca_model, &self.labeled.frames.controls, &self.scales, &self.scales_path)?;
+        let map =
+            reprise_label_models::rig_map(pca_model, &self.labeled.frames.controls, &self.scales, &self.scales_path)?;
         let model = LatentModel::new(l.label.clone(), fit.predictor.clone(), fit.offset.clone(), map)
             .map_err(|e| StageError::Numerical(format!("label `{}`: {e}", l.label)))?;
         let d = l.d;

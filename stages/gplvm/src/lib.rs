@@ -23,8 +23,8 @@ use reprise_artifact::pca::{self, SCALED};
 use reprise_numerics::gplvm::{
     ConnectivityParams, ConnectivityPath, DynamicsParams, Fit, FitConfig, FitData, Jitter, LikelihoodConfig, Optimizer,
 };
-use reprise_numerics::optim::{Convergence, StopReason};
 use reprise_numerics::lbfgs::LbfgsOptions;
+use reprise_numerics::optim::{Convergence, StopReason};
 use reprise_numerics::scg::ScgOptions;
 use reprise_stagekit::{StageError, StageResult};
 use serde::Serialize;
@@ -581,17 +581,17 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         stage: "gplvm",
         bin: "reprise-gplvm",
         inputs: &[
-        wiring::required("coords", "pca_coords.parquet"),
-        wiring::required("labeled_frames", "labeled_frames.parquet"),
-        wiring::optional("pca_models", "pca_models.parquet"),
-        wiring::optional("scales", "scales.parquet"),
-        wiring::optional("controls", "controls.parquet"),
+            wiring::required("coords", "pca_coords.parquet"),
+            wiring::required("labeled_frames", "labeled_frames.parquet"),
+            wiring::optional("pca_models", "pca_models.parquet"),
+            wiring::optional("scales", "scales.parquet"),
+            wiring::optional("controls", "controls.parquet"),
         ],
         outputs: &[
-        wiring::artifact("latents", "gplvm_latents.parquet"),
-        wiring::artifact("models", "gplvm_models.parquet"),
-        wiring::artifact("trace", "gplvm_trace.parquet"),
-        wiring::artifact("fits", "gplvm_fits.parquet"),
+            wiring::artifact("latents", "gplvm_latents.parquet"),
+            wiring::artifact("models", "gplvm_models.parquet"),
+            wiring::artifact("trace", "gplvm_trace.parquet"),
+            wiring::artifact("fits", "gplvm_fits.parquet"),
         ],
         derived: &[],
     }

@@ -246,7 +246,6 @@ fn labeled_frames(frames: &Frames, segments: &[Segment], rows: &[Vec<usize>], ma
     LabeledFrames { segment_id, label, frames: out, masked_controls: masked }
 }
 
-
 /// What the stage reads and writes, for the runner's wiring by artifact
 /// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
 pub const WIRING: reprise_stagekit::wiring::Wiring = {
@@ -255,13 +254,13 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         stage: "label",
         bin: "reprise-label",
         inputs: &[
-        wiring::required("frames", "frames.parquet"),
-        wiring::optional("controls", "controls.parquet"),
-        wiring::source("labels", "a labels file (TOML or CSV)"),
+            wiring::required("frames", "frames.parquet"),
+            wiring::optional("controls", "controls.parquet"),
+            wiring::source("labels", "a labels file (TOML or CSV)"),
         ],
         outputs: &[
-        wiring::artifact("segments", "segments.parquet"),
-        wiring::artifact("labeled_frames", "labeled_frames.parquet"),
+            wiring::artifact("segments", "segments.parquet"),
+            wiring::artifact("labeled_frames", "labeled_frames.parquet"),
         ],
         derived: &[],
     }

@@ -14,8 +14,8 @@ use rayon::prelude::*;
 use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::motion_graph::{self, Edge, Nodes};
 use reprise_artifact::scales;
-use reprise_transition_graph::{largest_scc, local_minima, window_distances, Graph};
 use reprise_stagekit::{StageError, StageResult};
+use reprise_transition_graph::{largest_scc, local_minima, window_distances, Graph};
 use serde::Serialize;
 
 /// How transition candidates are kept.
@@ -268,13 +268,10 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         stage: "motion-graph",
         bin: "reprise-motion-graph",
         inputs: &[
-        wiring::required("labeled_frames", "labeled_frames.parquet"),
-        wiring::required("scales", "scales.parquet"),
+            wiring::required("labeled_frames", "labeled_frames.parquet"),
+            wiring::required("scales", "scales.parquet"),
         ],
-        outputs: &[
-        wiring::artifact("nodes", "mg_nodes.parquet"),
-        wiring::artifact("edges", "mg_edges.parquet"),
-        ],
+        outputs: &[wiring::artifact("nodes", "mg_nodes.parquet"), wiring::artifact("edges", "mg_edges.parquet")],
         derived: &[],
     }
 };

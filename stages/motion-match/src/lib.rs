@@ -266,7 +266,6 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     Ok(Some(answers.into_iter().map(|(r, [a, b])| (r, [a.0, b.0])).collect()))
 }
 
-
 /// What the stage reads and writes, for the runner's wiring by artifact
 /// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
 pub const WIRING: reprise_stagekit::wiring::Wiring = {
@@ -275,15 +274,15 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         stage: "motion-match",
         bin: "reprise-motion-match",
         inputs: &[
-        wiring::required("labeled_frames", "labeled_frames.parquet"),
-        wiring::required("scales", "scales.parquet"),
-        wiring::required("requests", "transition_requests.parquet"),
+            wiring::required("labeled_frames", "labeled_frames.parquet"),
+            wiring::required("scales", "scales.parquet"),
+            wiring::required("requests", "transition_requests.parquet"),
         ],
         outputs: &[
-        wiring::artifact("mm_answers", "answers_motion_matching.parquet"),
-        wiring::artifact("mm_curves", "transitions_motion_matching.parquet"),
-        wiring::artifact("crossfade_answers", "answers_crossfade.parquet"),
-        wiring::artifact("crossfade_curves", "transitions_crossfade.parquet"),
+            wiring::artifact("mm_answers", "answers_motion_matching.parquet"),
+            wiring::artifact("mm_curves", "transitions_motion_matching.parquet"),
+            wiring::artifact("crossfade_answers", "answers_crossfade.parquet"),
+            wiring::artifact("crossfade_curves", "transitions_crossfade.parquet"),
         ],
         derived: &[],
     }

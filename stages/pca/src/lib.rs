@@ -279,14 +279,14 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         stage: "pca",
         bin: "reprise-pca",
         inputs: &[
-        wiring::required("labeled_frames", "labeled_frames.parquet"),
-        wiring::required("scales", "scales.parquet"),
-        wiring::required("controls", "controls.parquet"),
+            wiring::required("labeled_frames", "labeled_frames.parquet"),
+            wiring::required("scales", "scales.parquet"),
+            wiring::required("controls", "controls.parquet"),
         ],
         outputs: &[
-        wiring::artifact("models", "pca_models.parquet"),
-        wiring::artifact("coords", "pca_coords.parquet"),
-        wiring::artifact("errors", "pca_errors.parquet"),
+            wiring::artifact("models", "pca_models.parquet"),
+            wiring::artifact("coords", "pca_coords.parquet"),
+            wiring::artifact("errors", "pca_errors.parquet"),
         ],
         derived: &[],
     }

@@ -206,12 +206,10 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         stage: "scale",
         bin: "reprise-scale",
         inputs: &[
-        wiring::required("labeled_frames", "labeled_frames.parquet"),
-        wiring::required("controls", "controls.parquet"),
+            wiring::required("labeled_frames", "labeled_frames.parquet"),
+            wiring::required("controls", "controls.parquet"),
         ],
-        outputs: &[
-        wiring::artifact("scales", "scales.parquet"),
-        ],
+        outputs: &[wiring::artifact("scales", "scales.parquet")],
         derived: &[],
     }
 };

@@ -345,16 +345,14 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         stage: "synthesize",
         bin: "reprise-synthesize",
         inputs: &[
-        wiring::required("gplvm_models", "gplvm_models.parquet"),
-        wiring::required("latents", "gplvm_latents.parquet"),
-        wiring::required("pca_models", "pca_models.parquet"),
-        wiring::required("scales", "scales.parquet"),
-        wiring::required("bridges", "bridges.parquet"),
-        wiring::source("scripts", "a scripts file (TOML)"),
+            wiring::required("gplvm_models", "gplvm_models.parquet"),
+            wiring::required("latents", "gplvm_latents.parquet"),
+            wiring::required("pca_models", "pca_models.parquet"),
+            wiring::required("scales", "scales.parquet"),
+            wiring::required("bridges", "bridges.parquet"),
+            wiring::source("scripts", "a scripts file (TOML)"),
         ],
-        outputs: &[
-        wiring::artifact("curves", "curves.parquet"),
-        ],
+        outputs: &[wiring::artifact("curves", "curves.parquet")],
         derived: &[],
     }
 };

@@ -28,11 +28,11 @@ use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::motion_graph;
 use reprise_artifact::transitions::{self, Answer, Request};
 
-use reprise_transition_graph::{blend_weight, Graph};
 use reprise_stagekit::{StageError, StageResult};
 use reprise_synth_engine::engine::{self, Settings};
 use reprise_synth_engine::script::{Command, Script, Start};
 use reprise_synthesize::ModelInputs;
+use reprise_transition_graph::{blend_weight, Graph};
 use serde::Serialize;
 
 /// `reprise-transitions`: the transition benchmark.
@@ -385,7 +385,6 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     Ok(Some(answers.into_iter().map(|a| (a.request, [a.systems[0].0.clone(), a.systems[1].0.clone()])).collect()))
 }
 
-
 /// What the stage reads and writes, for the runner's wiring by artifact
 /// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
 pub const WIRING: reprise_stagekit::wiring::Wiring = {
@@ -394,23 +393,23 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         stage: "transitions",
         bin: "reprise-transitions",
         inputs: &[
-        wiring::required("gplvm_models", "gplvm_models.parquet"),
-        wiring::required("latents", "gplvm_latents.parquet"),
-        wiring::required("pca_models", "pca_models.parquet"),
-        wiring::required("scales", "scales.parquet"),
-        wiring::required("bridges", "bridges.parquet"),
-        wiring::required("labeled_frames", "labeled_frames.parquet"),
-        wiring::required("mg_nodes", "mg_nodes.parquet"),
-        wiring::required("mg_edges", "mg_edges.parquet"),
+            wiring::required("gplvm_models", "gplvm_models.parquet"),
+            wiring::required("latents", "gplvm_latents.parquet"),
+            wiring::required("pca_models", "pca_models.parquet"),
+            wiring::required("scales", "scales.parquet"),
+            wiring::required("bridges", "bridges.parquet"),
+            wiring::required("labeled_frames", "labeled_frames.parquet"),
+            wiring::required("mg_nodes", "mg_nodes.parquet"),
+            wiring::required("mg_edges", "mg_edges.parquet"),
         ],
         outputs: &[
-        wiring::artifact("requests", "transition_requests.parquet"),
-        wiring::artifact("reprise_answers", "answers_reprise.parquet"),
-        wiring::artifact("reprise_curves", "transitions_reprise.parquet"),
-        wiring::artifact("reprise_reseeded", "transitions_reprise_reseeded.parquet"),
-        wiring::artifact("baseline_answers", "answers_baseline.parquet"),
-        wiring::artifact("baseline_curves", "transitions_baseline.parquet"),
-        wiring::artifact("baseline_reseeded", "transitions_baseline_reseeded.parquet"),
+            wiring::artifact("requests", "transition_requests.parquet"),
+            wiring::artifact("reprise_answers", "answers_reprise.parquet"),
+            wiring::artifact("reprise_curves", "transitions_reprise.parquet"),
+            wiring::artifact("reprise_reseeded", "transitions_reprise_reseeded.parquet"),
+            wiring::artifact("baseline_answers", "answers_baseline.parquet"),
+            wiring::artifact("baseline_curves", "transitions_baseline.parquet"),
+            wiring::artifact("baseline_reseeded", "transitions_baseline_reseeded.parquet"),
         ],
         derived: &[],
     }

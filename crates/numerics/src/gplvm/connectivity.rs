@@ -203,7 +203,7 @@ pub fn coarse_groups(times: &[f64], segments: &[i64], size: usize) -> Vec<usize>
 #[derive(Debug)]
 pub struct ConnectivityPrior {
     /// Points the prior is computed over (N, or m on a subset).
-    n: usize,
+    points: usize,
     /// Rows of the input (N).
     n_full: usize,
     /// Size of the eigenproblem: the points, or the coarse graph's nodes.
@@ -250,7 +250,7 @@ impl ConnectivityPrior {
         }
         let scratch = self_adjoint_evd_scratch::<f64>(m, ComputeEigenvectors::Yes, params.par, Default::default());
         Ok(Self {
-            n,
+            points: n,
             n_full: n,
             m,
             rows: None,
@@ -321,7 +321,7 @@ impl ConnectivityPrior {
 
     /// Number of points the prior is computed over ($N$, or $m$ on a subset).
     pub fn points(&self) -> usize {
-        self.n
+        self.points
     }
 
     /// Checks `x`'s length and, on a subset, gathers its rows into `xs`.
@@ -354,7 +354,7 @@ impl ConnectivityPrior {
 
     /// [`Self::value_pass`] on the `points × q` coordinates `x`.
     fn value_points(&mut self, x: &[f64]) -> Result<ConnectivityEval, GplvmError> {
-        let (n, m, q) = (self.n, self.m, self.q);
+        let (n, m, q) = (self.points, self.m, self.q);
         if x.iter().any(|v| !v.is_finite()) {
             return Err(GplvmError::NonFinite("latent coordinate"));
         }
@@ -527,7 +527,7 @@ impl ConnectivityPrior {
 
     /// [`Self::value_grad_add`] on the `points × q` coordinates `x`.
     fn grad_points(&mut self, x: &[f64], grad: &mut [f64]) -> Result<ConnectivityEval, GplvmError> {
-        let (n, m, q) = (self.n, self.m, self.q);
+        let (n, m, q) = (self.points, self.m, self.q);
         let eval = self.value_points(x)?;
         let par = self.params.par;
         let (beta, weight, epsilon) = (eval.beta, eval.weight, eval.epsilon);

@@ -22,8 +22,8 @@
 
 use super::params::JitterUsed;
 use super::{
-    coarse_groups, subset_rows, ConnectivityParams, ConnectivityPrior, DynamicsParams, DynamicsPrior, EvalInfo, GplvmError, Hyper,
-    Likelihood, LikelihoodConfig, Objective, Predictor, SignalPrior,
+    coarse_groups, subset_rows, ConnectivityParams, ConnectivityPrior, DynamicsParams, DynamicsPrior, EvalInfo,
+    GplvmError, Hyper, Likelihood, LikelihoodConfig, Objective, Predictor, SignalPrior,
 };
 use crate::lbfgs::{lbfgs, LbfgsOptions};
 use crate::optim::{Convergence, OptInfo, OptIter, OptResult, StopReason};
