@@ -104,16 +104,21 @@ pub fn latents_with_bridges(panels: &[LatentPanel], bridges: &[(usize, [f64; 2],
 pub fn fit_traces(traces: &[(String, Vec<(i64, f64)>)]) -> String {
     let (pw, ph, cols) = (250.0, 150.0, 4usize);
     let rows = traces.len().div_ceil(cols).max(1);
-    let mut s =
-        svg_open(pw * cols as f64 + 20.0, ph * rows as f64 + 30.0, "GPLVM objective E against iteration, per label");
-    for (i, (label, pts)) in traces.iter().enumerate() {
+    let mut s = svg_open(
+        pw * cols as f64 + 20.0,
+        ph * rows as f64 + 30.0,
+        "GPLVM objective against iteration, per label: log₁₀(E − E_min), so the approach to convergence stays visible",
+    );
+    for (i, (label, raw)) in traces.iter().enumerate() {
         let (ox, oy) = (10.0 + pw * (i % cols) as f64, 24.0 + ph * (i / cols) as f64);
+        let pts = gap_to_minimum(raw);
+        let pts = &pts;
         let (i0, i1) = range(pts.iter().map(|p| p.0 as f64));
         let (v0, v1) = range(pts.iter().map(|p| p.1));
         let (sx, sy) = (scale(i0, i1, ox + 40.0, ox + pw - 14.0), scale(v0, v1, oy + ph - 26.0, oy + 20.0));
         let line: Vec<String> =
             pts.iter().filter(|p| p.1.is_finite()).map(|p| format!("{:.1},{:.1}", sx(p.0 as f64), sy(p.1))).collect();
-        let (first, last) = (pts.first().map_or(f64::NAN, |p| p.1), pts.last().map_or(f64::NAN, |p| p.1));
+        let (first, last) = (raw.first().map_or(f64::NAN, |p| p.1), raw.last().map_or(f64::NAN, |p| p.1));
         let _ = write!(
             s,
             "<rect x='{ox}' y='{oy}' width='{}' height='{}' fill='none' stroke='#ccc'/>\
@@ -138,6 +143,16 @@ pub fn fit_traces(traces: &[(String, Vec<(i64, f64)>)]) -> String {
         let _ = write!(s, "<text x='20' y='50' font-size='12'>no fit trace given (--gplvm-trace)</text>");
     }
     s + "</svg>"
+}
+
+/// $\log_{10}(E_k - E_{min} + \delta)$ per iteration, $\delta = 10^{-9}\max(|E_{min}|, 1)$ (the
+/// convergence rule's scale): the gap to the best value, so a fit that has converged ends
+/// in a flat tail near $\log_{10}\delta$ and one still descending does not. Non-finite
+/// values are dropped.
+fn gap_to_minimum(pts: &[(i64, f64)]) -> Vec<(i64, f64)> {
+    let min = pts.iter().map(|p| p.1).filter(|v| v.is_finite()).fold(f64::INFINITY, f64::min);
+    let delta = 1e-9 * min.abs().max(1.0);
+    pts.iter().filter(|p| p.1.is_finite()).map(|&(i, v)| (i, (v - min + delta).log10())).collect()
 }
 
 /// Latency distributions: one histogram row per system on a shared seconds axis, with the
@@ -339,4 +354,20 @@ pub fn heat(title: &str, labels: &[String], value: impl Fn(&str, &str) -> Option
         }
     }
     s + "</svg>"
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The trace is drawn as the gap to its minimum on a log scale: known values, the
+    /// minimum at log₁₀ δ, and NaN dropped.
+    #[test]
+    fn traces_are_gaps_to_the_minimum() {
+        let g = gap_to_minimum(&[(1, 10.0), (2, 5.0), (3, f64::NAN), (4, 4.5)]);
+        assert_eq!(g.iter().map(|p| p.0).collect::<Vec<_>>(), [1, 2, 4]);
+        assert!((g[0].1 - (5.5f64 + 4.5e-9).log10()).abs() < 1e-12);
+        assert!((g[1].1 - (0.5f64 + 4.5e-9).log10()).abs() < 1e-12);
+        assert!((g[2].1 - 4.5e-9f64.log10()).abs() < 1e-12);
+    }
 }

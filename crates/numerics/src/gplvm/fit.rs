@@ -269,7 +269,8 @@ pub struct Fit {
     pub stage_iterations: Vec<usize>,
     /// The optimiser's per-iteration trace.
     pub trace: Vec<OptIter>,
-    /// The objective's parts at the start.
+    /// The parts of the objective the optimiser minimises, at the start (see
+    /// [`Self::minimised`]).
     pub initial: EvalInfo,
     /// The objective's parts at the optimum, with the exact connectivity prior.
     pub last: EvalInfo,
@@ -423,7 +424,7 @@ pub fn fit_observed(
     let layout = objective.layout();
     let p0 = layout.pack(&x0, &hyper0);
     let mut grad = vec![0.0; p0.len()];
-    let initial = objective.try_evaluate(&p0, &mut grad)?;
+    let mut initial = objective.try_evaluate(&p0, &mut grad)?;
     let optimizer = config.optimizer.with_f_typical((n * d) as f64);
     let mut runs = Vec::new();
     let mut start = coords.to_optimiser(&p0);
@@ -432,6 +433,10 @@ pub fn fit_observed(
     let mut fitted = None;
     if let Some(cheap) = cheap {
         let exact = objective.set_connectivity(Some(cheap));
+        if !path.ends_exact() {
+            // The start of the objective this fit minimises, like `minimised` at its end.
+            initial = objective.try_evaluate(&p0, &mut grad)?;
+        }
         runs.push(optimise(&mut objective, &coords, &optimizer, &start, fixed, &mut on_evaluation)?);
         fitted = Some(objective.try_evaluate(&coords.to_model(&runs[0].x), &mut grad)?);
         objective.set_connectivity(exact);
