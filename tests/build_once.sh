@@ -12,7 +12,11 @@ cd "$dir"
 # ../shared is where the tests find the public datasets; give the clone the same view.
 if [ -d "$src/../shared" ] && [ ! -e ../shared ]; then ln -s "$src/../shared" ../shared; fi
 cargo build --release && target/release/reprise run
-ids() { for b in target/release/reprise-*; do [ -x "$b" ] && grep -aoE 'reprise-code-id=[0-9a-f]{64};' "$b" | sort -u; done; }
+ids() {
+  for b in target/release/reprise-*; do
+    if [ -f "$b" ] && [ -x "$b" ]; then { grep -aoE 'reprise-code-id=[0-9a-f]{64};' "$b" || true; } | sort -u; fi
+  done
+}
 before="$(ids)"
 cargo test --workspace --release
 after="$(ids)"
