@@ -497,7 +497,9 @@ impl ConnectivityPrior {
         self.value_pass(x)
     }
 
-    /// The full symmetric heat kernel $K_c$ at `x` (before the clamp), for diagnostics.
+    /// The full symmetric heat kernel at `x` (before the clamp), for diagnostics: $K_c$
+    /// over the points, or on the coarse graph $K^c$ over its nodes ($m\times m$; a fine
+    /// pair's entry is $K^c_{ab}/\sqrt{n_an_b}$).
     pub fn heat_kernel(&mut self, x: &[f64]) -> Result<Mat<f64>, GplvmError> {
         self.value_pass(x)?;
         let mut k = self.b2.clone();

@@ -438,7 +438,9 @@ pub fn fit_observed(
             initial = objective.try_evaluate(&p0, &mut grad)?;
         }
         runs.push(optimise(&mut objective, &coords, &optimizer, &start, fixed, &mut on_evaluation)?);
-        fitted = Some(objective.try_evaluate(&coords.to_model(&runs[0].x), &mut grad)?);
+        if !path.ends_exact() {
+            fitted = Some(objective.try_evaluate(&coords.to_model(&runs[0].x), &mut grad)?);
+        }
         objective.set_connectivity(exact);
         start = runs[0].x.clone();
     }
@@ -452,10 +454,7 @@ pub fn fit_observed(
     let point = coords.to_model(&result.0.x);
     // The optimiser's last call may have been a rejected trial: evaluate the returned point.
     let last = objective.try_evaluate(&point, &mut grad)?;
-    let minimised = match fitted {
-        Some(cheap) if !path.ends_exact() => cheap,
-        _ => last.clone(),
-    };
+    let minimised = fitted.unwrap_or_else(|| last.clone());
     let hyper = layout.hyper(&point);
     let x = layout.x(&point).to_vec();
     let predictor = Predictor::new(&x, &y, d, hyper, &lik_config)?;
@@ -491,11 +490,18 @@ struct Coordinates {
 impl Coordinates {
     /// Model parameters from the optimiser's.
     fn to_model(&self, p: &[f64]) -> Vec<f64> {
-        let mut out = p.to_vec();
+        let mut out = Vec::new();
+        self.to_model_into(p, &mut out);
+        out
+    }
+
+    /// [`Self::to_model`] into `out` (reused across evaluations).
+    fn to_model_into(&self, p: &[f64], out: &mut Vec<f64>) {
+        out.clear();
+        out.extend_from_slice(p);
         if let Some(w) = &self.white {
             w.unwhiten(&p[..self.nq], &mut out[..self.nq]);
         }
-        out
     }
 
     /// The optimiser's parameters from the model's.
@@ -529,10 +535,10 @@ fn optimise(
 ) -> Result<OptResult, GplvmError> {
     let mut evaluations = 0;
     let mut failure = None;
-    let mut scratch = Vec::new();
+    let (mut scratch, mut model) = (Vec::new(), Vec::new());
     let result = optimizer.run(
         |p, g| {
-            let model = coords.to_model(p);
+            coords.to_model_into(p, &mut model);
             let v = objective.evaluate(&model, g);
             coords.grad_to_optimiser(g, &mut scratch);
             if let Some(i) = fixed {
