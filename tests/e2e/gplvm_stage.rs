@@ -152,6 +152,7 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     assert!(!html.contains("src='http") && !html.contains("src=\"http") && !html.contains("<link"), "self-contained");
     assert!(html.contains("id='player-data'") && html.contains("id='player-mesh'"), "the player's data is inline");
     transitions_refuses_a_graph_that_does_not_belong(&p);
+    bridges_refuse_models_of_another_pca(&p);
     // The same seeds give the same curves.
     let before = std::fs::read(a("curves")).unwrap();
     p.reprise(&["run", "--force", "synthesize"]).ok();
@@ -221,4 +222,51 @@ fn transitions_refuses_a_graph_that_does_not_belong(p: &Project) {
         !p.path("out/t").exists() || std::fs::read_dir(p.path("out/t")).unwrap().next().is_none(),
         "nothing written"
     );
+}
+
+/// `reprise-bridges` run by hand with the run's GPLVM models beside PCA models of another
+/// pca run (another variance share): refused as bad input naming both files, before any
+/// bridge is searched, nothing written.
+fn bridges_refuse_models_of_another_pca(p: &Project) {
+    const A: &str = "artifacts/dragon-face";
+    let a = |file: &str| format!("{A}/{file}.parquet");
+    let pca = [
+        "--labeled-frames",
+        &a("labeled_frames"),
+        "--scales",
+        &a("scales"),
+        "--controls",
+        &a("controls"),
+        "--models",
+        "out/pca2/m.parquet",
+        "--coords",
+        "out/pca2/c.parquet",
+        "--errors",
+        "out/pca2/e.parquet",
+        "--variance",
+        "0.9",
+        "--mesh-errors",
+        "false",
+    ];
+    p.stage("reprise-pca", &pca).ok();
+    let bridges = [
+        "--gplvm-models",
+        &a("gplvm_models"),
+        "--pca-models",
+        "out/pca2/m.parquet",
+        "--scales",
+        &a("scales"),
+        "--controls",
+        &a("controls"),
+        "--labeled-frames",
+        &a("labeled_frames"),
+        "--bridges",
+        "out/b2/bridges.parquet",
+    ];
+    let e = p.stage("reprise-bridges", &bridges).fails(reprise_stagekit::exit::INPUT);
+    assert!(
+        e.contains("gplvm_models.parquet: was made by `gplvm` from pca_models") && e.contains("out/pca2/m.parquet"),
+        "{e}"
+    );
+    assert!(!p.path("out/b2/bridges.parquet").exists(), "nothing written");
 }

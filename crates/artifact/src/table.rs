@@ -83,15 +83,24 @@ pub fn write(
     extra: &[(String, String)],
 ) -> Result<()> {
     let schema = Arc::new(Schema::new(columns.fields));
-    let batch = RecordBatch::try_new(schema.clone(), columns.arrays).map_err(|e| ArtifactError::parquet(path, e))?;
-    let mut kv = vec![
-        KeyValue::new(KEY_KIND.into(), kind.name.to_string()),
-        KeyValue::new(KEY_SCHEMA_VERSION.into(), kind.version.to_string()),
-    ];
-    if let Some(hash) = content_hash(&batch) {
+    let batch = RecordBatch::try_new(schema, columns.arrays).map_err(|e| ArtifactError::parquet(path, e))?;
+    let kv = [(KEY_KIND.to_string(), kind.name.to_string()), (KEY_SCHEMA_VERSION.into(), kind.version.to_string())]
+        .into_iter()
+        .chain(provenance.to_metadata())
+        .chain(extra.iter().cloned());
+    write_batch(path, &batch, kv.collect())
+}
+
+/// Writes `batch` atomically with the key-value `metadata` (kind, schema version,
+/// provenance, extra keys) and the batch's content hash (computed here, replacing any
+/// [`KEY_CONTENT`] in `metadata`).
+pub(crate) fn write_batch(path: &Path, batch: &RecordBatch, metadata: Vec<(String, String)>) -> Result<()> {
+    let schema = batch.schema();
+    let mut kv: Vec<KeyValue> =
+        metadata.into_iter().filter(|(k, _)| k != KEY_CONTENT).map(|(k, v)| KeyValue::new(k, v)).collect();
+    if let Some(hash) = content_hash(batch) {
         kv.push(KeyValue::new(KEY_CONTENT.into(), hash));
     }
-    kv.extend(provenance.to_metadata().into_iter().chain(extra.iter().cloned()).map(|(k, v)| KeyValue::new(k, v)));
     let props = WriterProperties::builder()
         .set_compression(Compression::ZSTD(ZstdLevel::try_new(1).expect("level 1 is valid")))
         .set_key_value_metadata(Some(kv))
@@ -99,7 +108,7 @@ pub fn write(
     write_atomic(path, |file| {
         let mut writer =
             ArrowWriter::try_new(file, schema, Some(props)).map_err(|e| ArtifactError::parquet(path, e))?;
-        writer.write(&batch).map_err(|e| ArtifactError::parquet(path, e))?;
+        writer.write(batch).map_err(|e| ArtifactError::parquet(path, e))?;
         writer.close().map_err(|e| ArtifactError::parquet(path, e))?;
         Ok(())
     })
@@ -268,9 +277,22 @@ impl Table {
     }
 
     /// Reads any Parquet file (no kind check), e.g. a user's curve table.
+    ///
+    /// A damaged file is an error naming it, never a panic: the column chunks' byte
+    /// ranges are checked against the file before any page is read (the `parquet` crate
+    /// asserts on a negative range), and any other panic inside the library is contained.
     pub fn read_any(path: &Path) -> Result<Self> {
+        crate::contain::contain(|| Self::read_unguarded(path)).unwrap_or_else(|message| {
+            Err(ArtifactError::Parquet { path: path.into(), message: format!("damaged file ({message})") })
+        })
+    }
+
+    fn read_unguarded(path: &Path) -> Result<Self> {
         let file = File::open(current_location(path)).map_err(|e| ArtifactError::io(path, e))?;
+        let file_len = file.metadata().map_err(|e| ArtifactError::io(path, e))?.len();
         let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| ArtifactError::parquet(path, e))?;
+        check_chunk_ranges(builder.metadata(), file_len)
+            .map_err(|message| ArtifactError::Parquet { path: path.into(), message })?;
         let metadata: BTreeMap<String, String> = builder
             .metadata()
             .file_metadata()
@@ -296,6 +318,10 @@ impl Table {
         Ok(Self { path: path.into(), batch, metadata })
     }
 
+    /// The whole table as one Arrow batch.
+    pub fn batch(&self) -> &RecordBatch {
+        &self.batch
+    }
     /// The file this table came from.
     pub fn path(&self) -> &Path {
         &self.path
@@ -439,4 +465,26 @@ impl Table {
     pub fn invalid(&self, message: impl Into<String>) -> ArtifactError {
         ArtifactError::Invalid { path: self.path.clone(), message: message.into() }
     }
+}
+
+/// Checks that every column chunk's pages lie inside the file (`file_len` bytes): a
+/// start and a compressed length that are non-negative and end within the file.
+pub fn check_chunk_ranges(
+    metadata: &parquet::file::metadata::ParquetMetaData,
+    file_len: u64,
+) -> std::result::Result<(), String> {
+    for (g, group) in metadata.row_groups().iter().enumerate() {
+        for (c, chunk) in group.columns().iter().enumerate() {
+            let start = chunk.dictionary_page_offset().unwrap_or(chunk.data_page_offset());
+            let len = chunk.compressed_size();
+            let end = u64::try_from(start).ok().zip(u64::try_from(len).ok()).and_then(|(s, l)| s.checked_add(l));
+            if !end.is_some_and(|end| end <= file_len) {
+                return Err(format!(
+                    "row group {g}, column {c} (`{}`): pages at byte {start}, length {len}, lie outside the {file_len}-byte file",
+                    chunk.column_path().string()
+                ));
+            }
+        }
+    }
+    Ok(())
 }

@@ -83,3 +83,40 @@ fn deferred_outputs_are_replaced_together() {
     let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert_eq!(names.len(), 2, "no temporary file is left: {names:?}");
 }
+
+/// A footer whose column chunk starts before the file (a negative offset: the
+/// `parquet` crate asserts on it) or ends past it is an error naming the file and the
+/// column, not a panic; found by the ingest stage's generative tests.
+#[test]
+fn a_column_chunk_outside_the_file_is_an_error() {
+    use parquet::file::metadata::{ParquetMetaDataReader, ParquetMetaDataWriter};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.parquet");
+    write(&path, 0.5);
+    let original = std::fs::read(&path).unwrap();
+    let metadata = ParquetMetaDataReader::new().parse_and_finish(&std::fs::File::open(&path).unwrap()).unwrap();
+    let footer = u32::from_le_bytes(original[original.len() - 8..original.len() - 4].try_into().unwrap()) as usize;
+    let data_end = original.len() - 8 - footer;
+    for (offset, size) in [(-40_i64, None), (4, Some(1_000_000_i64))] {
+        let mut builder = metadata.clone().into_builder();
+        let groups = builder.take_row_groups();
+        let groups = groups
+            .into_iter()
+            .map(|g| {
+                let mut columns: Vec<_> = g.columns().to_vec();
+                let mut first = columns[0].clone().into_builder().set_data_page_offset(offset).set_dictionary_page_offset(None);
+                if let Some(size) = size {
+                    first = first.set_total_compressed_size(size);
+                }
+                columns[0] = first.build().unwrap();
+                g.into_builder().set_column_metadata(columns).build().unwrap()
+            })
+            .collect();
+        let damaged_meta = builder.set_row_groups(groups).build();
+        let mut bytes = original[..data_end].to_vec();
+        ParquetMetaDataWriter::new(&mut bytes, &damaged_meta).finish().unwrap();
+        std::fs::write(&path, &bytes).unwrap();
+        let e = Table::read_any(&path).unwrap_err().to_string();
+        assert!(e.contains("t.parquet") && e.contains("column 0 (`v`)") && e.contains("outside"), "{e}");
+    }
+}

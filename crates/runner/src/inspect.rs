@@ -32,6 +32,8 @@ pub fn inspect(args: &InspectArgs) -> Result<String> {
     }
     let builder = ParquetRecordBatchReaderBuilder::try_new(file)
         .map_err(|e| Error::NotParquet { path: path.to_path_buf(), message: e.to_string() })?;
+    reprise_artifact::table::check_chunk_ranges(builder.metadata(), size)
+        .map_err(|message| Error::NotParquet { path: path.to_path_buf(), message })?;
     let schema = builder.schema().clone();
     let meta = builder.metadata().clone();
     let names: Vec<&str> = schema.fields().iter().map(|f| f.name().as_str()).collect();

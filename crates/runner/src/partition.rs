@@ -30,7 +30,10 @@ pub const SEGMENT_COLUMN: &str = "segment_id";
 #[must_use]
 pub fn label_digests(path: &Path) -> Option<BTreeMap<String, String>> {
     let file = File::open(path).ok()?;
-    let reader = ParquetRecordBatchReaderBuilder::try_new(file).ok()?.build().ok()?;
+    let file_len = file.metadata().ok()?.len();
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file).ok()?;
+    reprise_artifact::table::check_chunk_ranges(builder.metadata(), file_len).ok()?;
+    let reader = builder.build().ok()?;
     let schema = reader.schema();
     let label_at = schema.index_of(PARTITION_COLUMN).ok()?;
     if schema.field(label_at).data_type() != &DataType::Utf8 {
