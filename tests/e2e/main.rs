@@ -10,6 +10,7 @@ mod external_rig;
 mod gplvm_stage;
 mod init;
 mod lifetime;
+mod partitions;
 mod pipeline_errors;
 mod provenance_checks;
 mod python_readers;

@@ -22,6 +22,7 @@
 
 pub mod contain;
 pub mod error;
+pub mod partition;
 pub mod provenance;
 pub mod table;
 mod kinds {

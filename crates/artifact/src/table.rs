@@ -478,7 +478,7 @@ pub fn check_chunk_ranges(
             let start = chunk.dictionary_page_offset().unwrap_or(chunk.data_page_offset());
             let len = chunk.compressed_size();
             let end = u64::try_from(start).ok().zip(u64::try_from(len).ok()).and_then(|(s, l)| s.checked_add(l));
-            if !end.is_some_and(|end| end <= file_len) {
+            if end.is_none_or(|end| end > file_len) {
                 return Err(format!(
                     "row group {g}, column {c} (`{}`): pages at byte {start}, length {len}, lie outside the {file_len}-byte file",
                     chunk.column_path().string()

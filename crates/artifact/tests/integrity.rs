@@ -104,7 +104,8 @@ fn a_column_chunk_outside_the_file_is_an_error() {
             .into_iter()
             .map(|g| {
                 let mut columns: Vec<_> = g.columns().to_vec();
-                let mut first = columns[0].clone().into_builder().set_data_page_offset(offset).set_dictionary_page_offset(None);
+                let mut first =
+                    columns[0].clone().into_builder().set_data_page_offset(offset).set_dictionary_page_offset(None);
                 if let Some(size) = size {
                     first = first.set_total_compressed_size(size);
                 }

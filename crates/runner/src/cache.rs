@@ -390,6 +390,7 @@ mod tests {
                     finished_at: String::new(),
                     seconds: 0.0,
                     peak_rss_mb: None,
+                    partitions: BTreeMap::new(),
                 };
                 lock.stages.insert(stage.name.clone(), entry);
             }

@@ -91,6 +91,10 @@ pub struct RunArgs {
     /// Repeat to force several stages.
     #[arg(long, value_name = "STAGE")]
     pub force: Vec<String>,
+    /// Run at most N labels of a partitioned stage (scale, pca, gplvm) at once
+    /// (default: one per core).
+    #[arg(long, value_name = "N")]
+    pub jobs: Option<usize>,
 }
 
 /// `reprise dag`.

@@ -142,6 +142,10 @@ pub enum Error {
     #[error("stage `{stage}`: binary `{bin}` not found (looked in {searched}); build the stages with `cargo build --release`, or set REPRISE_BIN_DIR")]
     StageBinaryMissing { stage: String, bin: String, searched: String },
 
+    /// A partitioned stage's labels could not be found or merged.
+    #[error("stage `{stage}`: {message}")]
+    Partition { stage: String, message: String },
+
     /// A stage exited with a non-zero code.
     #[error("stage `{stage}` failed (exit code {code})")]
     StageFailed { stage: String, code: i32 },
@@ -208,9 +212,11 @@ impl Error {
             Self::Io { source, .. } | Self::LockWrite { source, .. } if exit::is_environment(source) => {
                 exit::ENVIRONMENT
             }
-            Self::Io { .. } | Self::InspectRows { .. } | Self::NotParquet { .. } | Self::SourceMissing { .. } => {
-                exit::INPUT
-            }
+            Self::Io { .. }
+            | Self::InspectRows { .. }
+            | Self::NotParquet { .. }
+            | Self::Partition { .. }
+            | Self::SourceMissing { .. } => exit::INPUT,
             Self::AlreadyRunning { .. } | Self::LockWrite { .. } | Self::OutputNotWritten { .. } => exit::FAILURE,
             Self::Spawn { .. } | Self::StageBinaryMissing { .. } | Self::StageKilled { .. } => exit::STAGE_CRASHED,
             Self::CheckFailed { code, .. } | Self::StageFailed { code, .. } | Self::InitProbe { code, .. } => *code,

@@ -114,12 +114,14 @@ pub struct Call<'a> {
     pub stats: Option<&'a Path>,
     /// Send the stage's stdout and stderr to this file instead of the runner's.
     pub log: Option<&'a Path>,
+    /// Ask the stage for plain progress lines even on a terminal (several stages share it).
+    pub plain_progress: bool,
 }
 
 /// Runs the stage binary `bin` in `dir` as `call` says and waits for it. A signal
 /// recorded by `interrupt` stops the stage (see the module docs).
 pub fn invoke(stage: &Stage, bin: &Path, dir: &Path, call: Call<'_>, interrupt: &Interrupt) -> Result<Outcome> {
-    let Call { check, stats, log } = call;
+    let Call { check, stats, log, plain_progress } = call;
     let mut command = Command::new(bin);
     command.args(stage_args(stage)).current_dir(dir).stdin(Stdio::null());
     if let Some(log) = log {
@@ -138,6 +140,9 @@ pub fn invoke(stage: &Stage, bin: &Path, dir: &Path, call: Call<'_>, interrupt: 
     }
     if check {
         command.arg("--check");
+    }
+    if plain_progress {
+        command.env(reprise_stagekit::progress::PLAIN_ENV, "1");
     }
     let spawn_error = |source| Error::Spawn { stage: stage.name.clone(), bin: bin.to_path_buf(), source };
     let mut child = spawn(&mut command).map_err(spawn_error)?;

@@ -177,6 +177,7 @@ mod tests {
                 finished_at: String::new(),
                 seconds: 0.0,
                 peak_rss_mb: None,
+                partitions: std::collections::BTreeMap::new(),
             },
         );
         check_existing(&p, &[&p.stages[0]], &lock, true).unwrap();

@@ -20,6 +20,7 @@
 //! | [`lock`] | the lock file |
 //! | [`cache`] | freshness and the reasons a stage is stale |
 //! | [`partition`] | the label partitions of an input, so `status` says which labels changed |
+//! | `partitioned` | running a partitioned stage one label at a time, cached per label, and merging |
 //! | [`exec`] | invoking a stage process |
 //! | [`run`], [`status`], [`dag_view`], [`inspect`], [`init`] | the subcommands |
 //! | [`error`] | the error type and its exit codes |
@@ -43,6 +44,7 @@ pub mod locate;
 pub mod lock;
 pub mod params;
 pub mod partition;
+mod partitioned;
 pub mod paths;
 pub mod pipeline;
 pub mod run;

@@ -73,6 +73,22 @@ pub struct LockEntry {
     /// The stage's peak resident memory (MB), when it reported it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub peak_rss_mb: Option<f64>,
+    /// For a stage run one label at a time (`crate::partitioned`), each label's last
+    /// successful run. Recorded as each label finishes, so a failed or interrupted stage
+    /// keeps the labels that succeeded (its `key` is then empty: the stage is not fresh).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub partitions: BTreeMap<String, PartitionRecord>,
+}
+
+/// One label's run of a partitioned stage.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PartitionRecord {
+    /// The partition's cache key (`crate::partitioned`).
+    pub key: String,
+    /// Each output of the partition run, hashed after it exited.
+    pub outputs: BTreeMap<String, FileRecord>,
+    /// Wall-clock seconds it took.
+    pub seconds: f64,
 }
 
 /// The whole lock file.
@@ -164,6 +180,7 @@ mod tests {
             finished_at: "2025-01-02T03:04:05Z".into(),
             seconds: 0.5,
             peak_rss_mb: Some(12.5),
+            partitions: BTreeMap::new(),
         }
     }
 

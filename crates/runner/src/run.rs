@@ -14,7 +14,9 @@ use crate::hash::FileHasher;
 use crate::locate::BinDirs;
 use crate::lock::{FileRecord, LockEntry, LockFile};
 use crate::params::canonical_json;
+use crate::partitioned;
 use crate::pipeline::{Pipeline, Stage};
+use reprise_stagekit::wiring::Partition;
 
 /// Runs the pipeline; progress goes to `log` (the runner's stderr).
 pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
@@ -82,7 +84,22 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
         let reasons: Vec<String> = plan[i].reasons.iter().map(ToString::to_string).collect();
         say(log, &format!("{:>10} {} ({})", "running", stage.name, reasons.join("; ")));
         remove_stale_temps(stage);
-        let result = run_stage(&pipeline, stage, bin, &mut hasher, &interrupt);
+        let partition = crate::wire::find(dirs.known, &stage.bin).map(|w| w.partition);
+        let result = match partition {
+            Some(Partition::Label { by }) => {
+                let job = partitioned::Job {
+                    pipeline: &pipeline,
+                    stage,
+                    by,
+                    bin,
+                    forced: forced.contains(&i),
+                    jobs: args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from)),
+                    interrupt: &interrupt,
+                };
+                partitioned::run(&job, &mut hasher, &mut lock, &lock_path, log)
+            }
+            _ => run_stage(&pipeline, stage, bin, &mut hasher, &interrupt),
+        };
         match result {
             Ok(entry) => {
                 let peak = entry.peak_rss_mb.map(|mb| format!(", peak memory {mb:.0} MB")).unwrap_or_default();
@@ -93,7 +110,9 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
             }
             Err(e) => {
                 remove_stale_temps(stage);
-                if lock.stages.remove(&stage.name).is_some() {
+                // A partitioned stage's entry keeps the labels that finished (not fresh).
+                let keep = lock.stages.get(&stage.name).is_some_and(|e| e.key.is_empty() && !e.partitions.is_empty());
+                if !keep && lock.stages.remove(&stage.name).is_some() {
                     lock.save(&lock_path)?;
                 }
                 return Err(e);
@@ -183,9 +202,36 @@ fn run_stage(
     hasher: &mut FileHasher,
     interrupt: &exec::Interrupt,
 ) -> Result<LockEntry> {
-    // Inputs are hashed now, after upstream stages of this run rewrote them.
+    let (inputs, input_records) = record_inputs(stage, hasher)?;
+    let started = Instant::now();
+    let (_, peak_rss_mb) = invoke_measured(pipeline, stage, bin, interrupt, false)?;
+    let seconds = started.elapsed().as_secs_f64();
+    let outputs = record_outputs(stage, hasher)?;
+    let key = cache::current_key(stage, bin, &inputs).unwrap_or_default();
+    Ok(LockEntry {
+        key,
+        bin: bin.record(),
+        params: canonical_json(&stage.params),
+        inputs: input_records,
+        outputs,
+        finished_at: crate::clock::rfc3339(SystemTime::now()),
+        seconds,
+        peak_rss_mb,
+        partitions: BTreeMap::new(),
+    })
+}
+
+/// Each input's blake3, `None` for a file that is missing.
+pub(crate) type InputHashes = BTreeMap<String, Option<String>>;
+
+/// `stage`'s inputs hashed now (after upstream stages of this run rewrote them), and
+/// their lock records (with each label's digest for an input with a `label` column).
+pub(crate) fn record_inputs(
+    stage: &Stage,
+    hasher: &mut FileHasher,
+) -> Result<(InputHashes, BTreeMap<String, FileRecord>)> {
     let inputs = cache::input_hashes(stage, hasher)?;
-    let mut input_records = BTreeMap::new();
+    let mut records = BTreeMap::new();
     for (name, path) in &stage.inputs {
         let Some(blake3) = inputs[name].clone() else {
             return Err(Error::SourceMissing {
@@ -195,26 +241,32 @@ fn run_stage(
             });
         };
         let labels = crate::partition::label_digests(&path.abs).unwrap_or_default();
-        input_records.insert(name.clone(), FileRecord { path: path.rel.clone(), blake3, labels });
+        records.insert(name.clone(), FileRecord { path: path.rel.clone(), blake3, labels });
     }
+    Ok((inputs, records))
+}
+
+/// Runs `stage` once (its outputs' directories created first) and returns its wall-clock
+/// seconds and the peak memory (MB) it reported; a failure is an error naming the stage.
+/// `plain_progress` asks it for plain progress lines (several stages run at once).
+pub(crate) fn invoke_measured(
+    pipeline: &Pipeline,
+    stage: &Stage,
+    bin: &ResolvedBin,
+    interrupt: &exec::Interrupt,
+    plain_progress: bool,
+) -> Result<(f64, Option<f64>)> {
     for (_, path) in &stage.outputs {
-        hasher.forget(&path.abs);
         if let Some(parent) = path.abs.parent() {
             std::fs::create_dir_all(parent).map_err(|source| Error::Io { path: parent.to_path_buf(), source })?;
         }
     }
-
-    let stats = pipeline.artifacts.abs.join(format!(".{}.stats.json", stage.name));
+    let stats = pipeline.artifacts.abs.join(format!(".{}.stats.json", crate::partitioned::file_name(&stage.name)));
     let _ = std::fs::create_dir_all(&pipeline.artifacts.abs);
     let _ = std::fs::remove_file(&stats);
     let started = Instant::now();
-    let outcome = exec::invoke(
-        stage,
-        &bin.path,
-        &pipeline.dir,
-        exec::Call { stats: Some(&stats), ..Default::default() },
-        interrupt,
-    )?;
+    let call = exec::Call { stats: Some(&stats), plain_progress, ..Default::default() };
+    let outcome = exec::invoke(stage, &bin.path, &pipeline.dir, call, interrupt)?;
     let seconds = started.elapsed().as_secs_f64();
     let peak_rss_mb = std::fs::read_to_string(&stats)
         .ok()
@@ -223,20 +275,20 @@ fn run_stage(
         .map(|bytes| bytes / 1_048_576.0);
     let _ = std::fs::remove_file(&stats);
     match outcome {
-        Outcome::Success => {}
-        Outcome::Failed(code) => return Err(Error::StageFailed { stage: stage.name.clone(), code }),
+        Outcome::Success => Ok((seconds, peak_rss_mb)),
+        Outcome::Failed(code) => Err(Error::StageFailed { stage: stage.name.clone(), code }),
         Outcome::Killed(signal) => {
-            return Err(Error::StageKilled { stage: stage.name.clone(), signal, name: exec::signal_name(signal) });
+            Err(Error::StageKilled { stage: stage.name.clone(), signal, name: exec::signal_name(signal) })
         }
         Outcome::Interrupted(signal) => {
-            return Err(Error::Interrupted {
-                stage: Some(stage.name.clone()),
-                signal,
-                name: exec::signal_name(signal),
-            });
+            Err(Error::Interrupted { stage: Some(stage.name.clone()), signal, name: exec::signal_name(signal) })
         }
     }
+}
 
+/// The lock records of `stage`'s outputs, hashed now (after it ran); an output it did not
+/// write is an error.
+pub(crate) fn record_outputs(stage: &Stage, hasher: &mut FileHasher) -> Result<BTreeMap<String, FileRecord>> {
     let mut outputs = BTreeMap::new();
     for (name, path) in &stage.outputs {
         hasher.forget(&path.abs);
@@ -249,23 +301,13 @@ fn run_stage(
         };
         outputs.insert(name.clone(), FileRecord { path: path.rel.clone(), blake3, labels: BTreeMap::new() });
     }
-    let key = cache::current_key(stage, bin, &inputs).unwrap_or_default();
-    Ok(LockEntry {
-        key,
-        bin: bin.record(),
-        params: canonical_json(&stage.params),
-        inputs: input_records,
-        outputs,
-        finished_at: crate::clock::rfc3339(SystemTime::now()),
-        seconds,
-        peak_rss_mb,
-    })
+    Ok(outputs)
 }
 
 /// Removes the temporary files (`.<name>.<pid>.tmp`) that a stage that died left beside
 /// its outputs. Only one run of a pipeline runs at a time and its stages die with it, so
 /// any such file is stale.
-fn remove_stale_temps(stage: &Stage) {
+pub(crate) fn remove_stale_temps(stage: &Stage) {
     for (_, path) in &stage.outputs {
         let (Some(dir), Some(name)) = (path.abs.parent(), path.abs.file_name()) else { continue };
         let prefix = format!(".{}.", name.to_string_lossy());

@@ -145,6 +145,7 @@ mod tests {
             inputs: &[wiring::source("recipe", "a recipe file")],
             outputs: &[wiring::artifact("dough", "dough.parquet"), wiring::artifact("crumbs", "crumbs.parquet")],
             derived: &[],
+            partition: wiring::Partition::Whole,
         },
         Wiring {
             stage: "bake",
@@ -152,6 +153,7 @@ mod tests {
             inputs: &[wiring::required("dough", "dough.parquet"), wiring::optional("icing", "icing.parquet")],
             outputs: &[wiring::artifact("cake", "cake.parquet")],
             derived: &[],
+            partition: wiring::Partition::Whole,
         },
         Wiring {
             stage: "taste",
@@ -159,6 +161,7 @@ mod tests {
             inputs: &[wiring::required("cake", "cake.parquet"), wiring::optional_source("notes", "notes")],
             outputs: &[wiring::report("verdict", "verdict.md")],
             derived: &[("name", Derived::PipelineName), ("lock", Derived::LockFile)],
+            partition: wiring::Partition::Whole,
         },
     ];
 

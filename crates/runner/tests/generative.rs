@@ -17,7 +17,14 @@ const PIPELINE: &str = include_str!("../../../pipeline.toml");
 /// reader, the guards and the DAG are what these tests exercise).
 const STAGES: &[Wiring] = &{
     const fn stage(stage: &'static str, bin: &'static str) -> Wiring {
-        Wiring { stage, bin, inputs: &[], outputs: &[], derived: &[] }
+        Wiring {
+            stage,
+            bin,
+            inputs: &[],
+            outputs: &[],
+            derived: &[],
+            partition: reprise_stagekit::wiring::Partition::Whole,
+        }
     }
     [
         stage("ingest", "reprise-ingest"),

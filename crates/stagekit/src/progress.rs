@@ -15,9 +15,14 @@ pub const TEMPLATE: &str = "{msg:>12} [{bar:30}] {pos}/{len} {elapsed} (ETA {eta
 /// How often a bar prints its line when stderr is not a terminal.
 pub const LOG_EVERY: Duration = Duration::from_secs(5);
 
-/// Where a stage's bars draw: stderr as a terminal, else [`LogLines`] on stderr.
+/// Set (to anything) in a stage's environment, it prints plain lines even on a terminal:
+/// the runner sets it when several stages share one terminal (a partitioned stage).
+pub const PLAIN_ENV: &str = "REPRISE_PROGRESS_PLAIN";
+
+/// Where a stage's bars draw: stderr as a terminal (unless [`PLAIN_ENV`] is set), else
+/// [`LogLines`] on stderr.
 pub fn draw_target() -> ProgressDrawTarget {
-    if io::stderr().is_terminal() {
+    if io::stderr().is_terminal() && std::env::var_os(PLAIN_ENV).is_none() {
         ProgressDrawTarget::stderr()
     } else {
         ProgressDrawTarget::term_like_with_hz(Box::new(LogLines::stderr(LOG_EVERY)), 1)

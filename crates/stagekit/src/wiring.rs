@@ -21,6 +21,55 @@ pub struct Wiring {
     pub outputs: &'static [Output],
     /// Parameters the runner fills in from the pipeline unless `pipeline.toml` sets them.
     pub derived: &'static [(&'static str, Derived)],
+    /// Whether the runner may run the stage one label at a time.
+    pub partition: Partition,
+}
+
+/// How the runner may split a stage's work.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Partition {
+    /// One run for everything.
+    Whole,
+    /// One run per label of the input `by` (a role with a `label` column, in the order its
+    /// labels first appear). The stage takes `--partition <label>`, reads its whole inputs,
+    /// and writes only that label's rows, each output with a `label` column; its rows for a
+    /// label depend only on that label's rows of every labeled input (and on the whole of
+    /// every input without a `label` column). The runner caches each label on exactly that
+    /// and merges the labels' rows into the declared outputs
+    /// (`reprise_artifact::partition::merge`).
+    Label {
+        /// The input whose labels are the partitions, and whose `segment_id`s are current.
+        by: &'static str,
+    },
+}
+
+/// The `--partition` flag's name, as the runner passes it.
+pub const PARTITION_FLAG: &str = "partition";
+
+/// The items of one partition: with `partition` given, those whose label it is (an
+/// input error naming `source` when there are none), else all of them.
+pub fn only_partition<T>(
+    items: Vec<T>,
+    label_of: impl Fn(&T) -> &str,
+    partition: Option<&str>,
+    source: &std::path::Path,
+) -> crate::StageResult<Vec<T>> {
+    let Some(wanted) = partition else { return Ok(items) };
+    let mut labels: Vec<String> = Vec::new();
+    for item in &items {
+        if !labels.iter().any(|l| l == label_of(item)) {
+            labels.push(label_of(item).to_string());
+        }
+    }
+    let kept: Vec<T> = items.into_iter().filter(|item| label_of(item) == wanted).collect();
+    if kept.is_empty() {
+        return Err(crate::StageError::Input(format!(
+            "{}: no label `{wanted}` to fit for --partition (labels: {})",
+            source.display(),
+            labels.join(", ")
+        )));
+    }
+    Ok(kept)
 }
 
 /// One input.
@@ -105,4 +154,22 @@ pub const fn artifact(role: &'static str, file: &'static str) -> Output {
 /// An output in the reports directory.
 pub const fn report(role: &'static str, file: &'static str) -> Output {
     Output { role, artifact: file, place: Place::Reports }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    /// A partition keeps its label's items in order; no partition keeps all; an unknown
+    /// label is an input error listing the labels.
+    #[test]
+    fn only_partition_keeps_one_label() {
+        let items = vec![("a", 1), ("b", 2), ("a", 3)];
+        let f = Path::new("f.parquet");
+        assert_eq!(super::only_partition(items.clone(), |i| i.0, Some("a"), f).unwrap(), [("a", 1), ("a", 3)]);
+        assert_eq!(super::only_partition(items.clone(), |i| i.0, None, f).unwrap(), items);
+        let e = super::only_partition(items, |i| i.0, Some("c"), f).unwrap_err();
+        assert_eq!(e.code(), crate::exit::INPUT);
+        assert!(e.to_string().contains("f.parquet: no label `c`") && e.to_string().contains("(labels: a, b)"), "{e}");
+    }
 }

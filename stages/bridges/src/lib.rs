@@ -407,6 +407,7 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         ],
         outputs: &[wiring::artifact("bridges", "bridges.parquet")],
         derived: &[],
+        partition: wiring::Partition::Whole,
     }
 };
 

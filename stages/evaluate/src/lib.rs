@@ -544,5 +544,6 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
             wiring::report("html", "index.html"),
         ],
         derived: &[("name", wiring::Derived::PipelineName), ("lock", wiring::Derived::LockFile)],
+        partition: wiring::Partition::Whole,
     }
 };

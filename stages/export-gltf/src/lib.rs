@@ -84,6 +84,7 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         inputs: &[wiring::required("curves", "curves.parquet"), wiring::required("controls", "controls.parquet")],
         outputs: &[wiring::artifact("glb", "exported.glb")],
         derived: &[],
+        partition: wiring::Partition::Whole,
     }
 };
 

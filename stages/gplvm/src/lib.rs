@@ -222,6 +222,10 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     #[serde(skip)]
     pub threads: usize,
+    /// Only this label (the runner's partitioned run): its rows only are written.
+    #[arg(long, value_name = "LABEL")]
+    #[serde(skip)]
+    pub partition: Option<String>,
     /// Only validate the flags and exit.
     #[arg(long)]
     #[serde(skip)]
@@ -456,6 +460,7 @@ pub(crate) fn fit_label(data: &LabelData, config: &FitConfig, bar: &reprise_stag
 
 /// Runs the stage (or only validates, with `--check`). Returns the per-label summaries.
 pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
+    use reprise_stagekit::wiring;
     args.validate()?;
     if args.check {
         return Ok(None);
@@ -470,7 +475,8 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
     }
     let coords = pca::read_coords(&args.coords)?;
     let labeled = LabeledFrames::read(&args.labeled_frames)?;
-    let mut labels = gather(&coords, labeled.frames.fps, &args.coords)?;
+    let labels = gather(&coords, labeled.frames.fps, &args.coords)?;
+    let mut labels = wiring::only_partition(labels, |l| &l.label, args.partition.as_deref(), &args.coords)?;
     let config = args.fit_config();
     let checker = (args.heldout_every >= 2).then(|| heldout::Checker::open(args, &labeled)).transpose()?;
     // Largest first, so that two workers finish together.
@@ -594,5 +600,6 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
             wiring::artifact("fits", "gplvm_fits.parquet"),
         ],
         derived: &[],
+        partition: wiring::Partition::Label { by: "labeled_frames" },
     }
 };

@@ -315,6 +315,7 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
             wiring::artifact("clips", "clips.parquet"),
         ],
         derived: &[],
+        partition: wiring::Partition::Whole,
     }
 };
 

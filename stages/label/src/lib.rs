@@ -263,6 +263,7 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
             wiring::artifact("labeled_frames", "labeled_frames.parquet"),
         ],
         derived: &[],
+        partition: wiring::Partition::Whole,
     }
 };
 

@@ -273,5 +273,6 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         ],
         outputs: &[wiring::artifact("nodes", "mg_nodes.parquet"), wiring::artifact("edges", "mg_edges.parquet")],
         derived: &[],
+        partition: wiring::Partition::Whole,
     }
 };

@@ -285,6 +285,7 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
             wiring::artifact("crossfade_curves", "transitions_crossfade.parquet"),
         ],
         derived: &[],
+        partition: wiring::Partition::Whole,
     }
 };
 

@@ -64,6 +64,10 @@ pub struct Args {
     /// Measure mesh-space errors through the rig (needs a rig; off for plain curve tables).
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
     pub mesh_errors: bool,
+    /// Only this label (the runner's partitioned run): its rows only are written.
+    #[arg(long, value_name = "LABEL")]
+    #[serde(skip)]
+    pub partition: Option<String>,
     /// Only validate the flags and exit.
     #[arg(long)]
     #[serde(skip)]
@@ -227,7 +231,12 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     } else {
         None
     };
-    let data = label_data(&labeled, &scales, &args.scales)?;
+    let data = reprise_stagekit::wiring::only_partition(
+        label_data(&labeled, &scales, &args.scales)?,
+        |d| &d.label,
+        args.partition.as_deref(),
+        &args.labeled_frames,
+    )?;
     let n = labeled.frames.controls.len();
     let (mut models, mut coords, mut error_rows, mut labels) =
         (Vec::new(), PcaCoords::default(), Vec::new(), Vec::new());
@@ -289,5 +298,6 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
             wiring::artifact("errors", "pca_errors.parquet"),
         ],
         derived: &[],
+        partition: wiring::Partition::Label { by: "labeled_frames" },
     }
 };

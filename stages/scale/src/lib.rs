@@ -44,6 +44,10 @@ pub struct Args {
     /// Controls evaluated per rig batch (memory: batch · steps · 3V values).
     #[arg(long, default_value_t = 32)]
     pub batch: usize,
+    /// Only this label (the runner's partitioned run): its rows only are written.
+    #[arg(long, value_name = "LABEL")]
+    #[serde(skip)]
+    pub partition: Option<String>,
     /// Only validate the flags and exit.
     #[arg(long)]
     #[serde(skip)]
@@ -87,7 +91,12 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     let labeled = LabeledFrames::read(&args.labeled_frames)?;
     let controls = Controls::read(&args.controls)?;
     let (rig, layout) = reprise_stagekit::rig::open_rig(&controls, &labeled.frames.controls)?;
-    let labels = label_order(&labeled);
+    let labels = reprise_stagekit::wiring::only_partition(
+        label_order(&labeled),
+        String::as_str,
+        args.partition.as_deref(),
+        &args.labeled_frames,
+    )?;
     let n = labeled.frames.controls.len();
     let bar = reprise_stagekit::progress((labels.len() * n) as u64, "scale");
     let started = std::time::Instant::now();
@@ -211,5 +220,6 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         ],
         outputs: &[wiring::artifact("scales", "scales.parquet")],
         derived: &[],
+        partition: wiring::Partition::Label { by: "labeled_frames" },
     }
 };

@@ -354,5 +354,6 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         ],
         outputs: &[wiring::artifact("curves", "curves.parquet")],
         derived: &[],
+        partition: wiring::Partition::Whole,
     }
 };

@@ -412,6 +412,7 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
             wiring::artifact("baseline_reseeded", "transitions_baseline_reseeded.parquet"),
         ],
         derived: &[],
+        partition: wiring::Partition::Whole,
     }
 };
 
