@@ -16,3 +16,4 @@ mod provenance_checks;
 mod python_readers;
 mod robot_pipeline;
 mod scale_pca;
+mod slurm;

@@ -45,14 +45,18 @@ impl Project {
 
     /// Runs `reprise ARGS` in the project with the stage binaries of this build.
     pub fn reprise(&self, args: &[&str]) -> Run {
+        self.reprise_with(args, &[])
+    }
+
+    /// [`Project::reprise`] with extra environment variables.
+    pub fn reprise_with(&self, args: &[&str], env: &[(&str, &Path)]) -> Run {
         let exe = Path::new(env!("CARGO_BIN_EXE_reprise"));
-        let output = Command::new(exe)
-            .args(args)
-            .current_dir(self.dir.path())
-            .env("REPRISE_BIN_DIR", exe.parent().unwrap())
-            .output()
-            .unwrap();
-        Run { output }
+        let mut command = Command::new(exe);
+        command.args(args).current_dir(self.dir.path()).env("REPRISE_BIN_DIR", exe.parent().unwrap());
+        for (key, value) in env {
+            command.env(key, value);
+        }
+        Run { output: command.output().unwrap() }
     }
 }
 

@@ -391,6 +391,7 @@ mod tests {
                     seconds: 0.0,
                     peak_rss_mb: None,
                     partitions: BTreeMap::new(),
+                    job: None,
                 };
                 lock.stages.insert(stage.name.clone(), entry);
             }

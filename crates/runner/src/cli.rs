@@ -95,6 +95,28 @@ pub struct RunArgs {
     /// (default: one per core).
     #[arg(long, value_name = "N")]
     pub jobs: Option<usize>,
+    /// Where stage processes run: `local` child processes, or `slurm` job arrays (one
+    /// task per stale label of a partitioned stage; README "Running on a Slurm cluster").
+    #[arg(long, value_enum, default_value_t = ExecutorKind::Local)]
+    pub executor: ExecutorKind,
+    /// Slurm's `--partition` (its queue; not a label partition).
+    #[arg(long, value_name = "NAME")]
+    pub slurm_partition: Option<String>,
+    /// Slurm's `--account`.
+    #[arg(long, value_name = "NAME")]
+    pub slurm_account: Option<String>,
+    /// Slurm's `--time`: each task's time limit (e.g. `2:00:00`).
+    #[arg(long, value_name = "LIMIT")]
+    pub slurm_time: Option<String>,
+}
+
+/// `reprise run --executor`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ExecutorKind {
+    /// Child processes of the runner.
+    Local,
+    /// Slurm job arrays, submitted with `sbatch`.
+    Slurm,
 }
 
 /// `reprise dag`.

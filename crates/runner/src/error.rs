@@ -142,6 +142,14 @@ pub enum Error {
     #[error("stage `{stage}`: binary `{bin}` not found (looked in {searched}); build the stages with `cargo build --release`, or set REPRISE_BIN_DIR")]
     StageBinaryMissing { stage: String, bin: String, searched: String },
 
+    /// The Slurm executor could not submit, follow or finish a job.
+    #[error("stage `{stage}`: Slurm: {message}")]
+    Slurm { stage: String, message: String },
+
+    /// A task run by a scheduler exited non-zero; `output` is the end of its log.
+    #[error("stage `{stage}` failed (exit code {code}) in job {job}; the end of its output:\n{output}")]
+    TaskFailed { stage: String, code: i32, job: String, output: String },
+
     /// A partitioned stage's labels could not be found or merged.
     #[error("stage `{stage}`: {message}")]
     Partition { stage: String, message: String },
@@ -219,7 +227,11 @@ impl Error {
             | Self::SourceMissing { .. } => exit::INPUT,
             Self::AlreadyRunning { .. } | Self::LockWrite { .. } | Self::OutputNotWritten { .. } => exit::FAILURE,
             Self::Spawn { .. } | Self::StageBinaryMissing { .. } | Self::StageKilled { .. } => exit::STAGE_CRASHED,
-            Self::CheckFailed { code, .. } | Self::StageFailed { code, .. } | Self::InitProbe { code, .. } => *code,
+            Self::CheckFailed { code, .. }
+            | Self::StageFailed { code, .. }
+            | Self::TaskFailed { code, .. }
+            | Self::InitProbe { code, .. } => *code,
+            Self::Slurm { .. } => exit::ENVIRONMENT,
             Self::Interrupted { signal, .. } => exit::INTERRUPTED_BASE + signal,
         }
     }

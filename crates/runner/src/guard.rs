@@ -178,6 +178,7 @@ mod tests {
                 seconds: 0.0,
                 peak_rss_mb: None,
                 partitions: std::collections::BTreeMap::new(),
+                job: None,
             },
         );
         check_existing(&p, &[&p.stages[0]], &lock, true).unwrap();

@@ -22,6 +22,7 @@
 //! | [`partition`] | the label partitions of an input, so `status` says which labels changed |
 //! | `partitioned` | running a partitioned stage one label at a time, cached per label, and merging |
 //! | [`exec`] | invoking a stage process |
+//! | [`executor`], [`slurm`] | where stage processes run: local children or Slurm job arrays |
 //! | [`run`], [`status`], [`dag_view`], [`inspect`], [`init`] | the subcommands |
 //! | [`error`] | the error type and its exit codes |
 //!
@@ -35,6 +36,7 @@ pub mod dag;
 pub mod dag_view;
 pub mod error;
 pub mod exec;
+pub mod executor;
 pub mod guard;
 pub mod hash;
 pub mod init;
@@ -48,6 +50,7 @@ mod partitioned;
 pub mod paths;
 pub mod pipeline;
 pub mod run;
+pub mod slurm;
 pub mod status;
 pub mod wire;
 

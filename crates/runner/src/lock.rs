@@ -78,6 +78,10 @@ pub struct LockEntry {
     /// keeps the labels that succeeded (its `key` is then empty: the stage is not fresh).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub partitions: BTreeMap<String, PartitionRecord>,
+    /// The scheduler's job that ran the stage (Slurm: `<array job>_<task>`), if not run
+    /// locally; a partitioned stage's jobs are its labels'.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub job: Option<String>,
 }
 
 /// One label's run of a partitioned stage.
@@ -89,6 +93,9 @@ pub struct PartitionRecord {
     pub outputs: BTreeMap<String, FileRecord>,
     /// Wall-clock seconds it took.
     pub seconds: f64,
+    /// The scheduler's job that ran it (Slurm: `<array job>_<task>`), if not run locally.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub job: Option<String>,
 }
 
 /// The whole lock file.
@@ -181,6 +188,7 @@ mod tests {
             seconds: 0.5,
             peak_rss_mb: Some(12.5),
             partitions: BTreeMap::new(),
+            job: None,
         }
     }
 

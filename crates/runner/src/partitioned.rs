@@ -12,7 +12,8 @@
 //! ([`reprise_artifact::partition::merge`]) into outputs equal, row for row, to what one
 //! run of the stage over all labels writes.
 //!
-//! Stale partitions run `jobs` at a time. Each label's success is written to the lock as
+//! Stale partitions run on the run's executor (`--jobs` at a time locally, one Slurm
+//! array for all of them). Each label's success is written to the lock as
 //! it happens (`LockEntry::partitions`), so a failure or an interrupt keeps the labels
 //! that finished; the stage's own key is recorded only once every label ran and merged.
 //! This is the unit a cluster executor schedules.
@@ -20,8 +21,6 @@
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::mpsc;
 use std::time::{Instant, SystemTime};
 
 use reprise_artifact::partition::{self as parts, Part};
@@ -30,13 +29,14 @@ use reprise_artifact::provenance::{InputRef, Provenance};
 use crate::cache::{self, ResolvedBin};
 use crate::error::{Error, Result};
 use crate::exec;
+use crate::executor::{Executor, Task};
 use crate::hash::FileHasher;
 use crate::key::cache_key;
 use crate::lock::{FileRecord, LockEntry, LockFile, PartitionRecord};
 use crate::params::{canonical_json, ParamValue, Scalar};
 use crate::paths::ArtifactPath;
 use crate::pipeline::{Pipeline, Stage};
-use crate::run::{invoke_measured, record_inputs, record_outputs, remove_stale_temps};
+use crate::run::{record_inputs, record_outputs, remove_stale_temps};
 
 /// One partitioned stage to run.
 pub(crate) struct Job<'a> {
@@ -50,8 +50,8 @@ pub(crate) struct Job<'a> {
     pub bin: &'a ResolvedBin,
     /// Rerun every label (`--force`).
     pub forced: bool,
-    /// At most this many partitions at once.
-    pub jobs: usize,
+    /// Where the labels run.
+    pub executor: &'a dyn Executor,
     /// The runner's signal watch.
     pub interrupt: &'a exec::Interrupt,
 }
@@ -125,6 +125,7 @@ pub(crate) fn run(
             .iter()
             .filter_map(|u| old.get(&u.label).filter(|r| r.key == u.key).map(|r| (u.label.clone(), r.clone())))
             .collect(),
+        job: None,
     };
     lock.stages.insert(stage.name.clone(), entry.clone());
     lock.save(lock_path)?;
@@ -199,9 +200,9 @@ fn still_valid(record: Option<&PartitionRecord>, key: &str, part: &Stage, hasher
     Ok(true)
 }
 
-/// Runs the units `stale` (indices into `units`), `job.jobs` at a time, recording each
-/// success in `entry` and the lock as it arrives. After a failure no new unit starts; the
-/// first error is returned once the running ones end. Returns the largest peak memory.
+/// Runs the units `stale` (indices into `units`) on the job's executor, recording each
+/// success in `entry` and the lock as it arrives. Returns the largest peak memory and the
+/// jobs that ran them (for a scheduler).
 #[allow(clippy::too_many_arguments)]
 fn run_units(
     job: &Job<'_>,
@@ -216,59 +217,35 @@ fn run_units(
     for &i in stale {
         remove_stale_temps(&units[i].stage);
     }
-    let next = AtomicUsize::new(0);
-    let failed = AtomicBool::new(false);
-    let workers = job.jobs.clamp(1, stale.len().max(1));
-    let plain = workers > 1;
-    let (tx, rx) = mpsc::channel::<(usize, Result<(f64, Option<f64>)>)>();
-    let mut first_error = None;
+    let tasks: Vec<Task<'_>> = stale.iter().map(|&i| Task { stage: &units[i].stage, bin: job.bin }).collect();
     let mut peak: Option<f64> = None;
-    std::thread::scope(|scope| {
-        for _ in 0..workers {
-            let tx = tx.clone();
-            let (next, failed) = (&next, &failed);
-            scope.spawn(move || loop {
-                let k = next.fetch_add(1, Ordering::SeqCst);
-                if k >= stale.len() || failed.load(Ordering::SeqCst) {
-                    return;
-                }
-                let u = &units[stale[k]];
-                let result = invoke_measured(job.pipeline, &u.stage, job.bin, job.interrupt, plain);
-                if result.is_err() {
-                    failed.store(true, Ordering::SeqCst);
-                }
-                if tx.send((stale[k], result)).is_err() {
-                    return;
-                }
-            });
-        }
-        drop(tx);
-        for (i, result) in rx {
-            let u = &units[i];
-            let recorded = result.and_then(|(seconds, mb)| {
-                let outputs = record_outputs(&u.stage, hasher)?;
-                entry.partitions.insert(u.label.clone(), PartitionRecord { key: u.key.clone(), outputs, seconds });
-                lock.stages.insert(job.stage.name.clone(), entry.clone());
-                lock.save(lock_path)?;
-                Ok((seconds, mb))
-            });
-            match recorded {
-                Ok((seconds, mb)) => {
-                    peak = match (peak, mb) {
-                        (Some(a), Some(b)) => Some(a.max(b)),
-                        (a, b) => a.or(b),
-                    };
-                    say(log, &format!("{:>10} {} in {seconds:.2} s", "ran", u.stage.name));
-                }
-                Err(e) => {
-                    remove_stale_temps(&u.stage);
-                    failed.store(true, Ordering::SeqCst);
-                    first_error.get_or_insert(e);
-                }
+    let result = job.executor.run(job.pipeline, &tasks, job.interrupt, &mut |k, result| {
+        let u = &units[stale[k]];
+        let recorded = result.and_then(|done| {
+            let outputs = record_outputs(&u.stage, hasher)?;
+            let record = PartitionRecord { key: u.key.clone(), outputs, seconds: done.seconds, job: done.job.clone() };
+            entry.partitions.insert(u.label.clone(), record);
+            lock.stages.insert(job.stage.name.clone(), entry.clone());
+            lock.save(lock_path)?;
+            Ok(done)
+        });
+        match recorded {
+            Ok(done) => {
+                peak = match (peak, done.peak_rss_mb) {
+                    (Some(a), Some(b)) => Some(a.max(b)),
+                    (a, b) => a.or(b),
+                };
+                let at = done.job.map(|j| format!(" (Slurm {j})")).unwrap_or_default();
+                say(log, &format!("{:>10} {} in {:.2} s{at}", "ran", u.stage.name, done.seconds));
+                Ok(())
+            }
+            Err(e) => {
+                remove_stale_temps(&u.stage);
+                Err(e)
             }
         }
     });
-    first_error.map_or(Ok(peak), Err)
+    result.map(|()| peak)
 }
 
 /// Merges the labels' files into each of the stage's outputs, in the order of `by`, with

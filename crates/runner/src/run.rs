@@ -6,10 +6,11 @@ use std::io::Write;
 use std::time::{Instant, SystemTime};
 
 use crate::cache::{self, Assessment, ResolvedBin};
-use crate::cli::RunArgs;
+use crate::cli::{ExecutorKind, RunArgs};
 use crate::dag::Dag;
 use crate::error::{Error, Result};
 use crate::exec::{self, Outcome};
+use crate::executor::{Done, Executor, Local, Slurm, SlurmOptions, Task};
 use crate::hash::FileHasher;
 use crate::locate::BinDirs;
 use crate::lock::{FileRecord, LockEntry, LockFile};
@@ -66,6 +67,10 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
     }
 
     let bins = preflight(&pipeline, &dag, &plan, &to_run)?;
+    for job in crate::slurm::cancel_leftovers(&pipeline)? {
+        say(log, &format!("reprise: cancelled Slurm job {} ({}), left running by an earlier run", job.job, job.stage));
+    }
+    let executor = executor(args);
     let interrupt = exec::Interrupt::watch();
     say(log, &format!("{:>10} {} of {} stages", "checking", to_run.len(), order.len()));
     check(&pipeline, &bins, &to_run, &interrupt)?;
@@ -93,12 +98,12 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
                     by,
                     bin,
                     forced: forced.contains(&i),
-                    jobs: args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from)),
+                    executor: executor.as_ref(),
                     interrupt: &interrupt,
                 };
                 partitioned::run(&job, &mut hasher, &mut lock, &lock_path, log)
             }
-            _ => run_stage(&pipeline, stage, bin, &mut hasher, &interrupt),
+            _ => run_stage(&pipeline, stage, bin, &mut hasher, &interrupt, executor.as_ref()),
         };
         match result {
             Ok(entry) => {
@@ -121,6 +126,22 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
     }
     say(log, &format!("{:>10} {ran} ran, {cached} cached in {:.2} s", "finished", started.elapsed().as_secs_f64()));
     Ok(())
+}
+
+/// The executor `args` ask for.
+fn executor(args: &RunArgs) -> Box<dyn Executor> {
+    match args.executor {
+        ExecutorKind::Local => Box::new(Local {
+            jobs: args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from)),
+        }),
+        ExecutorKind::Slurm => Box::new(Slurm {
+            options: SlurmOptions {
+                partition: args.slurm_partition.clone(),
+                account: args.slurm_account.clone(),
+                time: args.slurm_time.clone(),
+            },
+        }),
+    }
 }
 
 /// Everything that can be known wrong before any child starts: a missing binary, a
@@ -201,11 +222,14 @@ fn run_stage(
     bin: &ResolvedBin,
     hasher: &mut FileHasher,
     interrupt: &exec::Interrupt,
+    executor: &dyn Executor,
 ) -> Result<LockEntry> {
     let (inputs, input_records) = record_inputs(stage, hasher)?;
-    let started = Instant::now();
-    let (_, peak_rss_mb) = invoke_measured(pipeline, stage, bin, interrupt, false)?;
-    let seconds = started.elapsed().as_secs_f64();
+    let mut ran = Done::default();
+    executor.run(pipeline, &[Task { stage, bin }], interrupt, &mut |_, result| {
+        ran = result?;
+        Ok(())
+    })?;
     let outputs = record_outputs(stage, hasher)?;
     let key = cache::current_key(stage, bin, &inputs).unwrap_or_default();
     Ok(LockEntry {
@@ -215,9 +239,10 @@ fn run_stage(
         inputs: input_records,
         outputs,
         finished_at: crate::clock::rfc3339(SystemTime::now()),
-        seconds,
-        peak_rss_mb,
+        seconds: ran.seconds,
+        peak_rss_mb: ran.peak_rss_mb,
         partitions: BTreeMap::new(),
+        job: ran.job,
     })
 }
 
@@ -246,8 +271,8 @@ pub(crate) fn record_inputs(
     Ok((inputs, records))
 }
 
-/// Runs `stage` once (its outputs' directories created first) and returns its wall-clock
-/// seconds and the peak memory (MB) it reported; a failure is an error naming the stage.
+/// Runs `stage` once as a child process (its outputs' directories created first) and
+/// returns the peak memory (MB) it reported; a failure is an error naming the stage.
 /// `plain_progress` asks it for plain progress lines (several stages run at once).
 pub(crate) fn invoke_measured(
     pipeline: &Pipeline,
@@ -255,7 +280,7 @@ pub(crate) fn invoke_measured(
     bin: &ResolvedBin,
     interrupt: &exec::Interrupt,
     plain_progress: bool,
-) -> Result<(f64, Option<f64>)> {
+) -> Result<Option<f64>> {
     for (_, path) in &stage.outputs {
         if let Some(parent) = path.abs.parent() {
             std::fs::create_dir_all(parent).map_err(|source| Error::Io { path: parent.to_path_buf(), source })?;
@@ -264,10 +289,8 @@ pub(crate) fn invoke_measured(
     let stats = pipeline.artifacts.abs.join(format!(".{}.stats.json", crate::partitioned::file_name(&stage.name)));
     let _ = std::fs::create_dir_all(&pipeline.artifacts.abs);
     let _ = std::fs::remove_file(&stats);
-    let started = Instant::now();
     let call = exec::Call { stats: Some(&stats), plain_progress, ..Default::default() };
     let outcome = exec::invoke(stage, &bin.path, &pipeline.dir, call, interrupt)?;
-    let seconds = started.elapsed().as_secs_f64();
     let peak_rss_mb = std::fs::read_to_string(&stats)
         .ok()
         .and_then(|text| serde_json::from_str::<serde_json::Value>(&text).ok())
@@ -275,7 +298,7 @@ pub(crate) fn invoke_measured(
         .map(|bytes| bytes / 1_048_576.0);
     let _ = std::fs::remove_file(&stats);
     match outcome {
-        Outcome::Success => Ok((seconds, peak_rss_mb)),
+        Outcome::Success => Ok(peak_rss_mb),
         Outcome::Failed(code) => Err(Error::StageFailed { stage: stage.name.clone(), code }),
         Outcome::Killed(signal) => {
             Err(Error::StageKilled { stage: stage.name.clone(), signal, name: exec::signal_name(signal) })

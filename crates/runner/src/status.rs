@@ -22,7 +22,30 @@ pub fn status(pipeline_file: &std::path::Path, dirs: &BinDirs, out: &mut dyn Wri
     let ctx = cache::Inputs { pipeline: &pipeline, dag: &dag, lock: &lock, forced: &forced, dirs };
     let plan = cache::assess(&ctx, &mut FileHasher::new())?;
     let _ = out.write_all(render(&pipeline, dag.order(), &plan).as_bytes());
+    let _ = out.write_all(jobs(&pipeline).as_bytes());
     Ok(())
+}
+
+/// The Slurm jobs a run has in flight (or a killed run left), from the jobs file.
+fn jobs(pipeline: &Pipeline) -> String {
+    let listed = crate::slurm::listed_jobs(pipeline);
+    if listed.is_empty() {
+        return String::new();
+    }
+    match crate::slurm::in_flight(&listed) {
+        None => format!(
+            "{} Slurm job(s) listed in {}, but `squeue` cannot be asked about them\n",
+            listed.len(),
+            crate::slurm::jobs_file(pipeline).display()
+        ),
+        Some(live) if live.is_empty() => String::new(),
+        Some(live) => live
+            .iter()
+            .map(|(job, states)| {
+                format!("Slurm job {} in flight: stage `{}`, {} task(s): {states}\n", job.job, job.stage, job.tasks)
+            })
+            .collect(),
+    }
 }
 
 fn render(pipeline: &Pipeline, order: &[usize], plan: &[cache::Assessment]) -> String {
