@@ -63,9 +63,14 @@ pub fn labels_in_order(path: &Path) -> Result<Vec<(String, Vec<i64>)>> {
 pub struct Part<'a> {
     /// The partition's file.
     pub path: &'a Path,
-    /// The label every row's `label` column must hold.
+    /// The label every row's `label` column must hold, or for a pair its `from` column.
     pub label: &'a str,
+    /// For a pair's part, the label every row's `to` column must hold.
+    pub to: Option<&'a str>,
 }
+
+/// The columns naming a pair's two labels.
+pub const PAIR: [&str; 2] = ["from", "to"];
 
 /// Concatenates `parts` (in that order) into `out`, atomically. `inputs` is the
 /// provenance's input record of the merged file; `segments` each label's current segment
@@ -92,7 +97,11 @@ pub fn merge(
     let schema = Arc::new(Schema::new(union_fields(&tables)?));
     let mut batches = Vec::with_capacity(tables.len());
     for (table, part) in tables.iter().zip(parts) {
-        let columns = widen(table, renumber(table, part.label, segments)?, &schema)?;
+        let columns = match part.to {
+            None => renumber(table, part.label, segments)?,
+            Some(to) => pair_rows(table, part.label, to)?,
+        };
+        let columns = widen(table, columns, &schema)?;
         batches.push(RecordBatch::try_new(schema.clone(), columns).map_err(|e| ArtifactError::parquet(out, e))?);
     }
     let batch = arrow::compute::concat_batches(&schema, &batches).map_err(|e| ArtifactError::parquet(out, e))?;
@@ -137,6 +146,16 @@ fn widen(table: &Table, columns: Vec<ArrayRef>, schema: &Schema) -> Result<Vec<A
             Err(_) => Err(table.invalid(format!("no column `{}`, which another partition has", field.name()))),
         })
         .collect()
+}
+
+/// `table`'s columns after checking every row is of the pair `from → to`.
+fn pair_rows(table: &Table, from: &str, to: &str) -> Result<Vec<ArrayRef>> {
+    for (column, label) in PAIR.iter().zip([from, to]) {
+        if let Some(row) = table.strings(column)?.iter().position(|l| l != label) {
+            return Err(table.invalid(format!("row {row}: `{column}` is not `{label}`, the partition's")));
+        }
+    }
+    Ok(table.batch().columns().to_vec())
 }
 
 /// The metadata every part of one run shares: all but the content hash, the inputs and
@@ -209,7 +228,7 @@ mod tests {
         write(&a, "walk", &[0, 0, 1], &[1.0, 2.0, 3.0], serde_json::json!({"q": 3}));
         write(&b, "run", &[7, 9, 9], &[4.0, 5.0, 6.0], serde_json::json!({"q": 3}));
         let segments = BTreeMap::from([("walk".to_string(), vec![4, 5]), ("run".to_string(), vec![0, 2])]);
-        let parts = [Part { path: &b, label: "run" }, Part { path: &a, label: "walk" }];
+        let parts = [Part { path: &b, label: "run", to: None }, Part { path: &a, label: "walk", to: None }];
         merge(&parts, &out, &inputs(), &segments).unwrap();
         let t = Table::read(&out, KIND).unwrap();
         assert_eq!(t.strings("label").unwrap(), ["run", "run", "run", "walk", "walk", "walk"]);
@@ -229,14 +248,21 @@ mod tests {
         let segments = BTreeMap::from([("walk".to_string(), vec![0]), ("run".to_string(), vec![1])]);
         write(&a, "walk", &[0], &[1.0], serde_json::json!({"q": 3}));
         write(&b, "run", &[1], &[1.0], serde_json::json!({"q": 4}));
-        let e = merge(&[Part { path: &a, label: "walk" }, Part { path: &b, label: "run" }], &out, &inputs(), &segments)
-            .unwrap_err()
-            .to_string();
+        let e = merge(
+            &[Part { path: &a, label: "walk", to: None }, Part { path: &b, label: "run", to: None }],
+            &out,
+            &inputs(),
+            &segments,
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("b.parquet") && e.contains("reprise.params"), "{e}");
-        let e = merge(&[Part { path: &a, label: "run" }], &out, &inputs(), &segments).unwrap_err().to_string();
+        let e =
+            merge(&[Part { path: &a, label: "run", to: None }], &out, &inputs(), &segments).unwrap_err().to_string();
         assert!(e.contains("a.parquet: row 0: label is not `run`"), "{e}");
         write(&a, "walk", &[0, 3], &[1.0, 2.0], serde_json::json!({"q": 3}));
-        let e = merge(&[Part { path: &a, label: "walk" }], &out, &inputs(), &segments).unwrap_err().to_string();
+        let e =
+            merge(&[Part { path: &a, label: "walk", to: None }], &out, &inputs(), &segments).unwrap_err().to_string();
         assert!(e.contains("row 1: label `walk` has 1 segment(s)"), "{e}");
         assert!(!out.exists(), "nothing written");
     }
@@ -254,15 +280,44 @@ mod tests {
         table::write(&a, KIND, cols("a", 1), &prov, &[]).unwrap();
         table::write(&b, KIND, cols("b", 2), &prov, &[]).unwrap();
         let segments = BTreeMap::new();
-        merge(&[Part { path: &a, label: "a" }, Part { path: &b, label: "b" }], &out, &inputs(), &segments).unwrap();
+        merge(
+            &[Part { path: &a, label: "a", to: None }, Part { path: &b, label: "b", to: None }],
+            &out,
+            &inputs(),
+            &segments,
+        )
+        .unwrap();
         let t = Table::read(&out, KIND).unwrap();
         assert_eq!(t.column_names(), ["label", "y0", "y1"]);
         assert_eq!(t.f64_opt("y1").unwrap(), [None, Some(1.0)]);
         table::write(&b, KIND, Columns::new().str("label", &["b"]).str("y0", &["x"]), &prov, &[]).unwrap();
-        let e = merge(&[Part { path: &a, label: "a" }, Part { path: &b, label: "b" }], &out, &inputs(), &segments)
+        let e = merge(
+            &[Part { path: &a, label: "a", to: None }, Part { path: &b, label: "b", to: None }],
+            &out,
+            &inputs(),
+            &segments,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("b.parquet: column `y0` is Utf8, another partition's is Float64"), "{e}");
+    }
+
+    /// A pair's part must hold only that pair's rows; an empty part (no bridge) merges.
+    #[test]
+    fn pair_parts_hold_their_pair() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b, out) = (dir.path().join("a.parquet"), dir.path().join("b.parquet"), dir.path().join("m.parquet"));
+        let prov = Provenance::new("s", "1", serde_json::json!({}));
+        let pair = |from: &[&str], to: &[&str]| Columns::new().str("from", from).str("to", to);
+        table::write(&a, KIND, pair(&["x", "x"], &["y", "y"]), &prov, &[]).unwrap();
+        table::write(&b, KIND, pair(&[], &[]), &prov, &[]).unwrap();
+        let parts = [Part { path: &a, label: "x", to: Some("y") }, Part { path: &b, label: "y", to: Some("x") }];
+        merge(&parts, &out, &inputs(), &BTreeMap::new()).unwrap();
+        assert_eq!(Table::read(&out, KIND).unwrap().strings("to").unwrap(), ["y", "y"]);
+        let e = merge(&[Part { path: &a, label: "x", to: Some("z") }], &out, &inputs(), &BTreeMap::new())
             .unwrap_err()
             .to_string();
-        assert!(e.contains("b.parquet: column `y0` is Utf8, another partition's is Float64"), "{e}");
+        assert!(e.contains("a.parquet: row 0: `to` is not `z`"), "{e}");
     }
 
     /// Labels and their segments in order of first appearance.

@@ -2,13 +2,15 @@
 //! ([`reprise_stagekit::wiring::Partition`]) runs once per label of its input `by`, each
 //! run cached on its own, and the labels' rows are merged into the stage's outputs.
 //!
-//! A partition is the stage binary with `--partition <label>`, reading the stage's whole
-//! inputs and writing its outputs under `<artifacts>/partitions/<stage>/<label>/`. Its
+//! A partition is the stage binary with `--partition <label>` (a pair adds
+//! `--partition-to <to>`), reading the stage's whole inputs and writing its outputs under
+//! `<artifacts>/partitions/<stage>/<label>/` (a pair's under `…/<from>/<to>/`). Its
 //! cache key ([`crate::key::cache_key`] of `<stage>[<label>]`) holds the binary's identity,
 //! the stage's parameters, the partition's output paths and, per input, the label's digest
 //! ([`crate::partition::label_digests`]) for an input with a `label` column, or the whole
-//! file's blake3 for one without. So when one label's frames change, only that label's
-//! key changes: the other labels are cached, and merged with the new one
+//! file's blake3 for one without (a pair: both labels' digests). So when one label's frames
+//! change, only that label's keys change (for pairs, the 2·(L−1) pairs holding it): the
+//! others are cached, and merged with the new ones
 //! ([`reprise_artifact::partition::merge`]) into outputs equal, row for row, to what one
 //! run of the stage over all labels writes.
 //!
@@ -46,6 +48,8 @@ pub(crate) struct Job<'a> {
     pub stage: &'a Stage,
     /// The input whose labels are the partitions.
     pub by: &'a str,
+    /// One partition per ordered pair of labels, not per label.
+    pub pairs: bool,
     /// The stage's binary.
     pub bin: &'a ResolvedBin,
     /// Rerun every label (`--force`).
@@ -56,10 +60,15 @@ pub(crate) struct Job<'a> {
     pub interrupt: &'a exec::Interrupt,
 }
 
-/// One label's run: its stage (outputs under the partition directory, `--partition` set)
-/// and its key.
+/// One partition's run: its stage (outputs under the partition directory, `--partition`
+/// set) and its key.
 struct Unit {
+    /// Its name in the lock and the log: the label, or `from → to`.
+    name: String,
+    /// Its label, or a pair's first.
     label: String,
+    /// A pair's second label.
+    to: Option<String>,
     stage: Stage,
     key: String,
 }
@@ -101,12 +110,18 @@ pub(crate) fn run(
         .1;
     let order = parts::labels_in_order(&by_path.abs)
         .map_err(|e| Error::Partition { stage: stage.name.clone(), message: e.to_string() })?;
-    let units: Vec<Unit> = order.iter().map(|(label, _)| unit(pipeline, stage, bin, label, &input_records)).collect();
+    let labels: Vec<&str> = order.iter().map(|(label, _)| label.as_str()).collect();
+    let which: Vec<(&str, Option<&str>)> = if job.pairs {
+        labels.iter().flat_map(|&a| labels.iter().filter(move |&&b| b != a).map(move |&b| (a, Some(b)))).collect()
+    } else {
+        labels.iter().map(|&a| (a, None)).collect()
+    };
+    let units: Vec<Unit> = which.into_iter().map(|(a, b)| unit(pipeline, stage, bin, a, b, &input_records)).collect();
 
     let old = lock.stages.get(&stage.name).map(|e| e.partitions.clone()).unwrap_or_default();
     let mut stale = Vec::new();
     for (i, u) in units.iter().enumerate() {
-        if job.forced || !still_valid(old.get(&u.label), &u.key, &u.stage, hasher)? {
+        if job.forced || !still_valid(old.get(&u.name), &u.key, &u.stage, hasher)? {
             stale.push(i);
         }
     }
@@ -123,7 +138,7 @@ pub(crate) fn run(
         peak_rss_mb: None,
         partitions: units
             .iter()
-            .filter_map(|u| old.get(&u.label).filter(|r| r.key == u.key).map(|r| (u.label.clone(), r.clone())))
+            .filter_map(|u| old.get(&u.name).filter(|r| r.key == u.key).map(|r| (u.name.clone(), r.clone())))
             .collect(),
         job: None,
     };
@@ -132,12 +147,13 @@ pub(crate) fn run(
     say(
         log,
         &format!(
-            "{:>10} {}: {} of {} labels to run{}",
+            "{:>10} {}: {} of {} {} to run{}",
             "labels",
             stage.name,
             stale.len(),
             units.len(),
-            list(stale.iter().map(|&i| units[i].label.as_str()))
+            if job.pairs { "label pairs" } else { "labels" },
+            list(stale.iter().map(|&i| units[i].name.as_str()))
         ),
     );
 
@@ -151,17 +167,22 @@ pub(crate) fn run(
     Ok(entry)
 }
 
-/// The partition of `label`: its stage and its key.
+/// The partition of `label` (or of the pair `label → to`): its stage and its key.
 fn unit(
     pipeline: &Pipeline,
     stage: &Stage,
     bin: &ResolvedBin,
     label: &str,
+    to: Option<&str>,
     inputs: &BTreeMap<String, FileRecord>,
 ) -> Unit {
-    let dir = format!("{}/partitions/{}/{}", pipeline.artifacts.rel, file_name(&stage.name), file_name(label));
+    let name = to.map_or_else(|| label.to_string(), |to| format!("{label} → {to}"));
+    let mut dir = format!("{}/partitions/{}/{}", pipeline.artifacts.rel, file_name(&stage.name), file_name(label));
+    if let Some(to) = to {
+        dir = format!("{dir}/{}", file_name(to));
+    }
     let mut part = stage.clone();
-    part.name = format!("{}[{label}]", stage.name);
+    part.name = format!("{}[{name}]", stage.name);
     part.outputs = stage
         .outputs
         .iter()
@@ -172,20 +193,28 @@ fn unit(
         .collect();
     part.params
         .push((reprise_stagekit::wiring::PARTITION_FLAG.into(), ParamValue::Scalar(Scalar::Str(label.to_string()))));
+    if let Some(to) = to {
+        let value = ParamValue::Scalar(Scalar::Str(to.to_string()));
+        part.params.push((reprise_stagekit::wiring::PARTITION_TO_FLAG.into(), value));
+    }
     let digests: BTreeMap<String, String> = inputs
         .iter()
         .map(|(name, record)| {
             let digest = if record.labels.is_empty() {
                 format!("file:{}", record.blake3)
             } else {
-                record.labels.get(label).map_or_else(|| "label:absent".into(), |d| format!("label:{d}"))
+                let digest = |l: &str| record.labels.get(l).map_or("absent", String::as_str).to_string();
+                match to {
+                    None => format!("label:{}", digest(label)),
+                    Some(to) => format!("pair:{}:{}", digest(label), digest(to)),
+                }
             };
             (name.clone(), digest)
         })
         .collect();
     let outputs = part.outputs.iter().map(|(name, path)| (name.as_str(), path.rel.as_str()));
     let key = cache_key(&part.name, &bin.record().identity(), &part.params, &digests, outputs);
-    Unit { label: label.to_string(), stage: part, key }
+    Unit { name, label: label.to_string(), to: to.map(str::to_string), stage: part, key }
 }
 
 /// Whether a label's recorded run has this key and its outputs are still as written.
@@ -224,7 +253,7 @@ fn run_units(
         let recorded = result.and_then(|done| {
             let outputs = record_outputs(&u.stage, hasher)?;
             let record = PartitionRecord { key: u.key.clone(), outputs, seconds: done.seconds, job: done.job.clone() };
-            entry.partitions.insert(u.label.clone(), record);
+            entry.partitions.insert(u.name.clone(), record);
             lock.stages.insert(job.stage.name.clone(), entry.clone());
             lock.save(lock_path)?;
             Ok(done)
@@ -265,8 +294,11 @@ fn merge_outputs(
             .collect::<Option<_>>()
             .ok_or_else(|| fail(format!("a partition has no output `{role}`")))?;
         let inputs = current_inputs(files[0], hashes).map_err(fail)?;
-        let list: Vec<Part<'_>> =
-            units.iter().zip(&files).map(|(u, p)| Part { path: &p.abs, label: &u.label }).collect();
+        let list: Vec<Part<'_>> = units
+            .iter()
+            .zip(&files)
+            .map(|(u, p)| Part { path: &p.abs, label: &u.label, to: u.to.as_deref() })
+            .collect();
         parts::merge(&list, &out.abs, &inputs, &segments).map_err(|e| fail(e.to_string()))?;
     }
     Ok(())

@@ -91,11 +91,12 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
         remove_stale_temps(stage);
         let partition = crate::wire::find(dirs.known, &stage.bin).map(|w| w.partition);
         let result = match partition {
-            Some(Partition::Label { by }) => {
+            Some(p @ (Partition::Label { by } | Partition::LabelPair { by })) => {
                 let job = partitioned::Job {
                     pipeline: &pipeline,
                     stage,
                     by,
+                    pairs: matches!(p, Partition::LabelPair { .. }),
                     bin,
                     forced: forced.contains(&i),
                     executor: executor.as_ref(),

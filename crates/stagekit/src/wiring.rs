@@ -41,10 +41,20 @@ pub enum Partition {
         /// The input whose labels are the partitions, and whose `segment_id`s are current.
         by: &'static str,
     },
+    /// One run per ordered pair of two labels of the input `by`. The stage takes
+    /// `--partition <from> --partition-to <to>` and writes only that pair's rows, each
+    /// output with `from` and `to` columns; its rows depend only on the two labels' rows
+    /// of every labeled input (and the whole of every input without a `label` column).
+    LabelPair {
+        /// The input whose labels make the pairs.
+        by: &'static str,
+    },
 }
 
 /// The `--partition` flag's name, as the runner passes it.
 pub const PARTITION_FLAG: &str = "partition";
+/// The `--partition-to` flag's name (a pair's second label).
+pub const PARTITION_TO_FLAG: &str = "partition_to";
 
 /// The items of one partition: with `partition` given, those whose label it is (an
 /// input error naming `source` when there are none), else all of them.

@@ -8,8 +8,9 @@
 //! distance of the two poses. A pair keeps its candidates under a threshold. The default,
 //! `mesh-motion`, is absolute and comes from the data: a bridge's two poses may differ by
 //! at most `motion_multiple` (default 16) times the `motion_quantile` (default 0.5: the
-//! median) of the training data's per-frame mesh motion — the RMS vertex distance between
-//! consecutive frames of a segment, over every label's segments. With the defaults, the
+//! median) of the two labels' per-frame mesh motion — the RMS vertex distance between
+//! consecutive frames of a segment, over both labels' segments (per pair, so that a pair's
+//! bridges depend on its two labels only and the runner can cache each pair). With the defaults, the
 //! 12-frame smoothstep blend, whose steepest frame carries 1.5/12 of the gap, adds at most
 //! two median training frame steps per frame. Two labels with no pose that close
 //! get no direct bridge (the engine then routes through a third label, or fails). The alternatives: a quantile of
@@ -103,9 +104,17 @@ pub struct Args {
     /// With `mesh-motion`: which quantile of the per-frame mesh motion is the unit.
     #[arg(long, default_value_t = 0.5)]
     pub motion_quantile: f64,
-    /// Seed of the random starts.
+    /// Seed of the random starts (each pair's seed mixes in its two labels' names).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Only the pair from this label (the runner's partitioned run), to `--partition-to`.
+    #[arg(long, value_name = "LABEL", requires = "partition_to")]
+    #[serde(skip)]
+    pub partition: Option<String>,
+    /// Only the pair to this label (with `--partition`).
+    #[arg(long, value_name = "LABEL", requires = "partition")]
+    #[serde(skip)]
+    pub partition_to: Option<String>,
     /// Only validate the flags and exit.
     #[arg(long)]
     #[serde(skip)]
@@ -164,19 +173,46 @@ pub struct PairCount {
     pub kept: usize,
     /// The kept bridges' smallest rig distance.
     pub best: f64,
+    /// With `mesh-motion`: the two labels' per-frame mesh motion at `motion_quantile`.
+    pub frame_motion: Option<f64>,
+    /// With a mesh threshold: the largest mesh distance kept.
+    pub max_mesh: Option<f64>,
 }
 
 /// The `q`-quantile over all segments' consecutive frame pairs of the RMS vertex distance
-/// between their meshes (mesh units per frame, the nearest order statistic); evaluated 128
-/// frames at a time.
+/// between their meshes (mesh units per frame, the nearest order statistic).
 pub fn frame_motion(
     rig: &(Box<dyn reprise_rig::Rig>, reprise_rig::PoseLayout),
     lf: &LabeledFrames,
     q: f64,
 ) -> StageResult<f64> {
+    let steps: Vec<f64> = frame_steps(rig, lf, |_| true)?.into_values().flatten().collect();
+    quantile(steps, q)
+}
+
+/// The nearest order statistic of `steps` at `q`; an input error when there are none.
+fn quantile(mut steps: Vec<f64>, q: f64) -> StageResult<f64> {
+    if steps.is_empty() {
+        return Err(StageError::Input("the labeled frames have no two consecutive frames in a segment".into()));
+    }
+    steps.sort_by(f64::total_cmp);
+    Ok(steps[((steps.len() - 1) as f64 * q).round() as usize])
+}
+
+/// Per label (of those `wanted`), the RMS vertex distance between the meshes of each two
+/// consecutive frames of a segment (mesh units per frame); evaluated 128 frames at a time.
+fn frame_steps(
+    rig: &(Box<dyn reprise_rig::Rig>, reprise_rig::PoseLayout),
+    lf: &LabeledFrames,
+    wanted: impl Fn(&str) -> bool,
+) -> StageResult<std::collections::BTreeMap<String, Vec<f64>>> {
     const CHUNK: usize = 128;
-    let mut steps = Vec::with_capacity(lf.frames.rows());
+    let mut by_label: std::collections::BTreeMap<String, Vec<f64>> = std::collections::BTreeMap::new();
     for (start, end) in lf.segment_runs() {
+        if !wanted(&lf.label[start]) {
+            continue;
+        }
+        let steps = by_label.entry(lf.label[start].clone()).or_default();
         let mut prev: Option<Vec<f64>> = None;
         let mut at = start;
         while at < end {
@@ -198,11 +234,16 @@ pub fn frame_motion(
             at = to;
         }
     }
-    if steps.is_empty() {
-        return Err(StageError::Input("the labeled frames have no two consecutive frames in a segment".into()));
-    }
-    steps.sort_by(f64::total_cmp);
-    Ok(steps[((steps.len() - 1) as f64 * q).round() as usize])
+    Ok(by_label)
+}
+
+/// The seed of pair `from → to`: `seed` mixed with both labels' names, so a pair draws the
+/// same starts whatever other labels there are.
+fn pair_seed(seed: u64, from: &str, to: &str) -> u64 {
+    let mut h = blake3::Hasher::new();
+    h.update(from.as_bytes()).update(&[0]).update(to.as_bytes());
+    let bytes: [u8; 8] = h.finalize().as_bytes()[..8].try_into().expect("a blake3 hash has 32 bytes");
+    seed ^ u64::from_le_bytes(bytes)
 }
 
 /// M2's training outputs $\mu(x_i)$ (centred), the starts' guide.
@@ -220,10 +261,6 @@ fn training_outputs(m: &LatentModel) -> Vec<f64> {
 pub struct Outcome {
     /// Per ordered pair.
     pub counts: Vec<PairCount>,
-    /// With `mesh-motion`: the training data's per-frame mesh motion at `motion_quantile`.
-    pub frame_motion: Option<f64>,
-    /// With a mesh threshold: the largest mesh distance kept.
-    pub max_mesh: Option<f64>,
 }
 
 /// One candidate of a pair.
@@ -291,7 +328,9 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
     }
     let rig =
         args.controls.as_ref().map(|c| reprise_stagekit::rig::open_rig(&Controls::read(c)?, &controls)).transpose()?;
-    let mesh_max = match (args.threshold, &args.labeled_frames, rig.as_ref()) {
+    let pairs = pairs_to_run(&models, args)?;
+    let used = |i: usize| pairs.iter().any(|&(a, b)| a == i || b == i);
+    let steps = match (args.threshold, &args.labeled_frames, rig.as_ref()) {
         (Threshold::MeshMotion, Some(path), Some(r)) => {
             let lf = LabeledFrames::read(path)?;
             if lf.frames.controls != controls {
@@ -301,21 +340,33 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
                     args.gplvm_models.display()
                 )));
             }
-            let motion = frame_motion(r, &lf, args.motion_quantile)?;
-            Some((motion, args.motion_multiple * motion))
+            let labels: Vec<&str> = (0..models.len()).filter(|&i| used(i)).map(|i| models[i].label.as_str()).collect();
+            Some(frame_steps(r, &lf, |l| labels.contains(&l))?)
         }
-        (Threshold::Mesh, _, _) => args.max_distance.map(|d| (f64::NAN, d)),
         _ => None,
     };
-    let train: Vec<Vec<f64>> = models.par_iter().map(training_outputs).collect();
-    let pairs: Vec<(usize, usize)> =
-        (0..models.len()).flat_map(|a| (0..models.len()).filter(move |&b| b != a).map(move |b| (a, b))).collect();
+    // A pair's threshold: (the per-frame motion it is a multiple of, the largest mesh distance).
+    let pair_max = |from: &str, to: &str| -> StageResult<Option<(f64, f64)>> {
+        match (args.threshold, &steps) {
+            (Threshold::MeshMotion, Some(steps)) => {
+                let both = [from, to].iter().flat_map(|l| steps.get(*l).into_iter().flatten().copied()).collect();
+                let motion = quantile(both, args.motion_quantile)?;
+                Ok(Some((motion, args.motion_multiple * motion)))
+            }
+            (Threshold::Mesh, _) => Ok(args.max_distance.map(|d| (f64::NAN, d))),
+            _ => Ok(None),
+        }
+    };
+    let train: Vec<Option<Vec<f64>>> =
+        models.par_iter().enumerate().map(|(i, m)| used(i).then(|| training_outputs(m))).collect();
     let bar = reprise_stagekit::progress(pairs.len() as u64, "bridges");
     let per_pair: Vec<StageResult<(Vec<Bridge>, PairCount)>> = pairs
         .par_iter()
         .map(|&(a, b)| {
             let (m1, m2) = (&models[a], &models[b]);
-            let mut cands = candidates(m1, m2, &train[b], args, args.seed ^ ((a * 1000 + b) as u64));
+            let mesh_max = pair_max(&m1.label, &m2.label)?;
+            let train2 = train[b].as_deref().unwrap_or_default();
+            let mut cands = candidates(m1, m2, train2, args, pair_seed(args.seed, &m1.label, &m2.label));
             cands.sort_by(|x, y| x.rig.total_cmp(&y.rig));
             let tried = cands.len();
             let mesh_of = |c: &[Candidate]| -> StageResult<Option<Vec<f64>>> {
@@ -357,6 +408,8 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
                 candidates: tried,
                 kept: kept.len(),
                 best: kept.iter().map(|c| c.rig).fold(f64::INFINITY, f64::min),
+                frame_motion: mesh_max.map(|m| m.0).filter(|m| m.is_finite()),
+                max_mesh: mesh_max.map(|m| m.1),
             };
             let rows = kept
                 .into_iter()
@@ -384,11 +437,28 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
         counts.push(count);
     }
     bridges::write(&args.bridges, &all, models[0].q(), &provenance)?;
-    Ok(Some(Outcome {
-        counts,
-        frame_motion: mesh_max.map(|m| m.0).filter(|m| m.is_finite()),
-        max_mesh: mesh_max.map(|m| m.1),
-    }))
+    Ok(Some(Outcome { counts }))
+}
+
+/// The ordered pairs `(from, to)` of model indices to search: every pair, or the one
+/// `--partition` and `--partition-to` name.
+fn pairs_to_run(models: &[LatentModel], args: &Args) -> StageResult<Vec<(usize, usize)>> {
+    let all = (0..models.len()).flat_map(|a| (0..models.len()).filter(move |&b| b != a).map(move |b| (a, b)));
+    let (Some(from), Some(to)) = (&args.partition, &args.partition_to) else { return Ok(all.collect()) };
+    let find = |label: &str| {
+        models.iter().position(|m| m.label == label).ok_or_else(|| {
+            StageError::Input(format!(
+                "{}: no label `{label}` for --partition (labels: {})",
+                args.gplvm_models.display(),
+                models.iter().map(|m| m.label.as_str()).collect::<Vec<_>>().join(", ")
+            ))
+        })
+    };
+    let (a, b) = (find(from)?, find(to)?);
+    if a == b {
+        return Err(StageError::Config(format!("--partition and --partition-to are both `{from}`: a pair needs two")));
+    }
+    Ok(vec![(a, b)])
 }
 
 /// What the stage reads and writes, for the runner's wiring by artifact
@@ -407,7 +477,7 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         ],
         outputs: &[wiring::artifact("bridges", "bridges.parquet")],
         derived: &[],
-        partition: wiring::Partition::Whole,
+        partition: wiring::Partition::LabelPair { by: "gplvm_models" },
     }
 };
 
@@ -467,5 +537,22 @@ mod tests {
         assert!((m - 2.0 * 2.5f64.sqrt()).abs() < 1e-12, "{m}");
         assert!((frame_motion(&rig, &lf, 1.0).unwrap() - 3.0 * 2.5f64.sqrt()).abs() < 1e-12);
         assert!((frame_motion(&rig, &lf, 0.0).unwrap() - 2.5f64.sqrt()).abs() < 1e-12);
+        // Per label: segment 1 relabelled `b` keeps its own steps.
+        let mut lf = lf;
+        lf.label[4..].iter_mut().for_each(|l| *l = "b".into());
+        let steps = frame_steps(&rig, &lf, |_| true).unwrap();
+        let unit = 2.5f64.sqrt();
+        assert_eq!(steps["a"].len(), 3);
+        assert!(steps["b"].iter().all(|s| (s - 2.0 * unit).abs() < 1e-12), "{steps:?}");
+        assert!(frame_steps(&rig, &lf, |l| l == "b").unwrap().keys().eq(["b"]));
+    }
+
+    /// A pair's seed depends on its two labels, in order, and on the stage's seed only.
+    #[test]
+    fn pair_seeds_follow_the_labels() {
+        assert_eq!(pair_seed(0, "a", "b"), pair_seed(0, "a", "b"));
+        assert_ne!(pair_seed(0, "a", "b"), pair_seed(0, "b", "a"));
+        assert_ne!(pair_seed(0, "ab", "c"), pair_seed(0, "a", "bc"));
+        assert_ne!(pair_seed(0, "a", "b"), pair_seed(1, "a", "b"));
     }
 }

@@ -5,14 +5,22 @@ fn main() {
     let args = reprise_bridges::Args::parse();
     reprise_stagekit::main("reprise-bridges", reprise_stagekit::code_id!("REPRISE_CODE_ID_BRIDGES"), || {
         if let Some(out) = reprise_bridges::run(&args)? {
-            if let (Some(m), Some(max)) = (out.frame_motion, out.max_mesh) {
-                eprintln!(
-                    "per-frame mesh motion at the chosen quantile {m:.4}; bridges keep mesh distances up to {max:.4}"
-                );
-            }
-            eprintln!("{:<12} {:<12} {:>10} {:>5} {:>12}", "from", "to", "candidates", "kept", "best rig dist");
+            eprintln!(
+                "{:<12} {:<12} {:>10} {:>5} {:>12} {:>12} {:>12}",
+                "from", "to", "candidates", "kept", "best rig dist", "frame motion", "max mesh"
+            );
+            let or_dash = |v: Option<f64>| v.map_or_else(|| "-".into(), |v| format!("{v:.4}"));
             for c in &out.counts {
-                eprintln!("{:<12} {:<12} {:>10} {:>5} {:>12.4}", c.from, c.to, c.candidates, c.kept, c.best);
+                eprintln!(
+                    "{:<12} {:<12} {:>10} {:>5} {:>12.4} {:>12} {:>12}",
+                    c.from,
+                    c.to,
+                    c.candidates,
+                    c.kept,
+                    c.best,
+                    or_dash(c.frame_motion),
+                    or_dash(c.max_mesh)
+                );
             }
             let none = out.counts.iter().filter(|c| c.kept == 0).count();
             if none > 0 {
