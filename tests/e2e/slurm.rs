@@ -141,6 +141,8 @@ fn killed_runner_leaves_no_unreported_job(p: &Project, env: &[(&str, &Path)]) {
     assert!(jobs.exists(), "the runner submitted a job within 60 s");
     let status = p.reprise_with(&["status"], env).ok();
     assert!(status.contains("in flight: stage `gplvm`, 8 task(s)"), "{status}");
+    let dag = p.reprise_with(&["dag"], env).ok();
+    assert!(dag.contains("in flight: stage `gplvm`"), "{dag}");
 
     p.write("pipeline.toml", &p.read("pipeline.toml").replace("max_iters = 10000", "max_iters = 15"));
     let rerun = p.reprise_with(&["run", "--to", "gplvm", "--executor", "slurm"], env).ok();
@@ -150,4 +152,14 @@ fn killed_runner_leaves_no_unreported_job(p: &Project, env: &[(&str, &Path)]) {
     );
     let queue = Command::new("squeue").arg("-h").envs(env.iter().copied()).output().unwrap();
     assert!(queue.status.success() && queue.stdout.is_empty(), "{}", String::from_utf8_lossy(&queue.stdout));
+    a_failed_task_says_why(p, env);
+}
+
+/// A stage that fails on the cluster fails the run with its own exit code and message
+/// (read from the task's log), and nothing is left in flight.
+fn a_failed_task_says_why(p: &Project, env: &[(&str, &Path)]) {
+    p.write("pipeline.toml", &p.read("pipeline.toml").replace("q = 3", "q = 12"));
+    let out = p.reprise_with(&["run", "--to", "gplvm", "--executor", "slurm"], env).fails(4);
+    assert!(out.contains("failed (exit code 4) in job") && out.contains("fewer than the latent dimension 12"), "{out}");
+    assert!(!p.path("artifacts/dragon-face/.reprise.jobs").exists());
 }

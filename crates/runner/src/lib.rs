@@ -112,6 +112,9 @@ pub fn main_with_io(
         Command::Status(args) => status::status(&args.pipeline, &dirs, stdout, stderr),
         Command::Dag(args) => load(&args.pipeline.pipeline, dirs.known).map(|(p, d)| {
             let _ = write!(stdout, "{}", dag_view::render(&p, &d, args.format));
+            if args.format == cli::DagFormat::Text {
+                let _ = write!(stdout, "{}", status::jobs(&p));
+            }
         }),
         Command::Inspect(args) => inspect::inspect(args).map(|text| {
             let _ = write!(stdout, "{text}");

@@ -26,8 +26,9 @@ pub fn status(pipeline_file: &std::path::Path, dirs: &BinDirs, out: &mut dyn Wri
     Ok(())
 }
 
-/// The Slurm jobs a run has in flight (or a killed run left), from the jobs file.
-fn jobs(pipeline: &Pipeline) -> String {
+/// The Slurm jobs a run has in flight (or a killed run left), from the jobs file; one
+/// line each (`status` and `dag` print them).
+pub(crate) fn jobs(pipeline: &Pipeline) -> String {
     let listed = crate::slurm::listed_jobs(pipeline);
     if listed.is_empty() {
         return String::new();
