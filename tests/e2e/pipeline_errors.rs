@@ -237,3 +237,14 @@ fn empty_label_name_is_refused() {
     let out = p.reprise(&["run"]).fails(exit::INPUT);
     assert!(out.contains("labels.toml: rule 1: label `` is empty"), "{out}");
 }
+
+/// `--executor slurm` where Slurm's commands cannot be run: refused before anything is
+/// submitted or written, as an environment error naming what is missing.
+#[test]
+fn slurm_executor_without_slurm_is_an_environment_error() {
+    let p = small("min_segment_length = 1");
+    let empty = tempfile::tempdir().unwrap();
+    let out = p.reprise_with(&["run", "--executor", "slurm"], &[("PATH", empty.path())]).fails(exit::ENVIRONMENT);
+    assert!(out.contains("stage `ingest`: Slurm: `sbatch --version` does not run here"), "{out}");
+    assert!(!p.path("artifacts/small/frames.parquet").exists());
+}
