@@ -77,7 +77,10 @@ fn one_label_changed_reruns_one_partition_per_stage() {
     .collect();
     p.stage("reprise-bridges", &bridges.iter().map(String::as_str).collect::<Vec<_>>()).ok();
     assert_eq!(content(&a("bridges")), content("whole/bridges.parquet"), "bridges");
-    let segments = |f: &str| reprise_artifact::partition::labels_in_order(&p.path(&a(f))).unwrap();
+    let segments = |f: &str| -> Vec<(String, Vec<i64>)> {
+        let labels = reprise_artifact::partition::labels_in_order(&p.path(&a(f))).unwrap();
+        labels.into_iter().map(|l| (l.label, l.segments)).collect()
+    };
     assert_eq!(segments("gplvm_latents"), segments("labeled_frames"), "segment ids are the current labeling's");
     // Downstream checks accept the merged files as one run.
     reprise_artifact::provenance::check_same_run(&p.path(&a("gplvm_latents")), &p.path(&a("gplvm_models")), &[])

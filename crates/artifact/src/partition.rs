@@ -35,23 +35,35 @@ pub const LABEL: &str = "label";
 /// The column numbering segments across labels.
 pub const SEGMENT: &str = "segment_id";
 
-/// Each label's segment ids, in the order the labels and their segments first appear in
-/// `path` (a table with a Utf8 `label` column and, optionally, an Int64 `segment_id`).
-pub fn labels_in_order(path: &Path) -> Result<Vec<(String, Vec<i64>)>> {
+/// One label of a table: its segment ids in order of first appearance, and its rows.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LabelRows {
+    /// The label.
+    pub label: String,
+    /// Its `segment_id`s, in the order they first appear (empty without the column).
+    pub segments: Vec<i64>,
+    /// How many rows it has.
+    pub rows: usize,
+}
+
+/// Each label of `path` (a table with a Utf8 `label` column and, optionally, an Int64
+/// `segment_id`), in the order the labels first appear.
+pub fn labels_in_order(path: &Path) -> Result<Vec<LabelRows>> {
     let table = Table::read_any(path)?;
     let labels = table.strings(LABEL)?;
     let segments = if table.column_names().iter().any(|c| c == SEGMENT) { Some(table.i64(SEGMENT)?) } else { None };
-    let mut order: Vec<(String, Vec<i64>)> = Vec::new();
+    let mut order: Vec<LabelRows> = Vec::new();
     let mut at: BTreeMap<&str, usize> = BTreeMap::new();
     for (r, label) in labels.iter().enumerate() {
         let i = *at.entry(label).or_insert_with(|| {
-            order.push((label.clone(), Vec::new()));
+            order.push(LabelRows { label: label.clone(), segments: Vec::new(), rows: 0 });
             order.len() - 1
         });
+        order[i].rows += 1;
         if let Some(segments) = &segments {
             let id = segments[r];
-            if !order[i].1.contains(&id) {
-                order[i].1.push(id);
+            if !order[i].segments.contains(&id) {
+                order[i].segments.push(id);
             }
         }
     }
@@ -327,6 +339,7 @@ mod tests {
         let path = dir.path().join("l.parquet");
         let cols = Columns::new().str("label", &["b", "a", "b", "a"]).i64("segment_id", vec![3, 1, 4, 1]);
         table::write(&path, KIND, cols, &Provenance::new("s", "1", serde_json::json!({})), &[]).unwrap();
-        assert_eq!(labels_in_order(&path).unwrap(), vec![("b".into(), vec![3, 4]), ("a".into(), vec![1])]);
+        let rows = |label: &str, segments: Vec<i64>, rows| LabelRows { label: label.into(), segments, rows };
+        assert_eq!(labels_in_order(&path).unwrap(), vec![rows("b", vec![3, 4], 2), rows("a", vec![1], 2)]);
     }
 }

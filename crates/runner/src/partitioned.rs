@@ -110,7 +110,7 @@ pub(crate) fn run(
         .1;
     let order = parts::labels_in_order(&by_path.abs)
         .map_err(|e| Error::Partition { stage: stage.name.clone(), message: e.to_string() })?;
-    let labels: Vec<&str> = order.iter().map(|(label, _)| label.as_str()).collect();
+    let labels: Vec<&str> = order.iter().map(|l| l.label.as_str()).collect();
     let which: Vec<(&str, Option<&str>)> = if job.pairs {
         labels.iter().flat_map(|&a| labels.iter().filter(move |&&b| b != a).map(move |&b| (a, Some(b)))).collect()
     } else {
@@ -125,6 +125,14 @@ pub(crate) fn run(
             stale.push(i);
         }
     }
+    // Longest first, so that the last to finish is not a long one started late: by the
+    // seconds it took last time, else by its (first) label's rows.
+    let rows: BTreeMap<&str, usize> = order.iter().map(|l| (l.label.as_str(), l.rows)).collect();
+    let cost = |u: &Unit| (old.get(&u.name).map_or(0.0, |r| r.seconds), rows.get(u.label.as_str()).copied());
+    stale.sort_by(|&a, &b| {
+        let ((sa, ra), (sb, rb)) = (cost(&units[a]), cost(&units[b]));
+        sb.total_cmp(&sa).then(rb.cmp(&ra)).then(a.cmp(&b))
+    });
     // Until every label has run and merged, the stage is not fresh: its key stays empty,
     // and the labels still valid are kept.
     let mut entry = LockEntry {
@@ -282,11 +290,11 @@ fn run_units(
 fn merge_outputs(
     stage: &Stage,
     units: &[Unit],
-    order: &[(String, Vec<i64>)],
+    order: &[parts::LabelRows],
     hashes: &BTreeMap<String, Option<String>>,
 ) -> Result<()> {
     let fail = |message: String| Error::Partition { stage: stage.name.clone(), message };
-    let segments: BTreeMap<String, Vec<i64>> = order.iter().cloned().collect();
+    let segments: BTreeMap<String, Vec<i64>> = order.iter().map(|l| (l.label.clone(), l.segments.clone())).collect();
     for (role, out) in &stage.outputs {
         let files: Vec<&ArtifactPath> = units
             .iter()
