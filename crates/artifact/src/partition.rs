@@ -206,6 +206,14 @@ fn renumber(table: &Table, label: &str, segments: &BTreeMap<String, Vec<i64>>) -
         };
         ids.push(now);
     }
+    if seen.len() != current.len() {
+        return Err(table.invalid(format!(
+            "label `{label}` has {} segment(s) in the current labeled frames, this partition {}: a part must hold \
+             every segment of its label, in order; rerun the stage with --force",
+            current.len(),
+            seen.len()
+        )));
+    }
     let mut columns: Vec<ArrayRef> = batch.columns().to_vec();
     columns[at] = Arc::new(Int64Array::from(ids));
     Ok(columns)

@@ -91,8 +91,8 @@ pub struct RunArgs {
     /// Repeat to force several stages.
     #[arg(long, value_name = "STAGE")]
     pub force: Vec<String>,
-    /// Run at most N labels of a partitioned stage (scale, pca, gplvm) at once
-    /// (default: one per core).
+    /// Run at most N partitions of a partitioned stage (labels of scale, pca and gplvm,
+    /// label pairs of bridges) at once (default: one per core).
     #[arg(long, value_name = "N")]
     pub jobs: Option<usize>,
     /// Where stage processes run: `local` child processes, or `slurm` job arrays (one

@@ -105,6 +105,13 @@ pub fn stage_args(stage: &Stage) -> Vec<OsString> {
 /// (`reprise_stagekit::STATS_ENV`).
 pub const STATS_ENV: &str = "REPRISE_STATS_FILE";
 
+/// The peak resident memory (MB) a stage wrote to its statistics file, if it did.
+pub fn read_peak(stats: &Path) -> Option<f64> {
+    let text = std::fs::read_to_string(stats).ok()?;
+    let value: serde_json::Value = serde_json::from_str(&text).ok()?;
+    value.get("peak_rss_bytes")?.as_f64().map(|bytes| bytes / 1_048_576.0)
+}
+
 /// How a stage is invoked besides its flags.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Call<'a> {

@@ -3,8 +3,9 @@
 //! README's "Partitioned stages" plan).
 //!
 //! A Parquet artifact with a Utf8 column `label` has one partition per label. A partition's
-//! digest hashes the schema (every column's name and type but `label`) and, in file order,
-//! each of the label's rows in arrow's row format. A `segment_id` column is hashed as the
+//! digest hashes its shape (the name and type of every column but `label` that has a value
+//! in one of the label's rows) and, in file order, each of the label's rows over those
+//! columns in arrow's row format. A `segment_id` column is hashed as the
 //! segment's ordinal within the label (0 for its first segment, …): ids are numbered across
 //! labels, so another label gaining a segment renumbers this one's without changing its data.
 
@@ -14,7 +15,7 @@ use std::path::Path;
 
 use arrow::array::{Array, Int64Array, StringArray};
 use arrow::datatypes::DataType;
-use arrow::record_batch::RecordBatchReader;
+use arrow::record_batch::{RecordBatch, RecordBatchReader};
 use arrow::row::{RowConverter, SortField};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
@@ -40,34 +41,55 @@ pub fn label_digests(path: &Path) -> Option<BTreeMap<String, String>> {
         return None;
     }
     let segment_at = schema.index_of(SEGMENT_COLUMN).ok().filter(|&i| schema.field(i).data_type() == &DataType::Int64);
-    let hashed: Vec<usize> = (0..schema.fields().len()).filter(|&i| i != label_at && Some(i) != segment_at).collect();
-    let mut shape = blake3::Hasher::new();
-    for &i in &hashed {
-        let field = schema.field(i);
-        shape.update(format!("{}:{:?};", field.name(), field.data_type()).as_bytes());
-    }
-    let converter =
-        RowConverter::new(hashed.iter().map(|&i| SortField::new(schema.field(i).data_type().clone())).collect())
-            .ok()?;
-    let mut hashers: BTreeMap<String, blake3::Hasher> = BTreeMap::new();
-    let mut ordinals: BTreeMap<String, (Vec<i64>, u64)> = BTreeMap::new();
-    for batch in reader {
-        let batch = batch.ok()?;
-        let labels = batch.column(label_at).as_any().downcast_ref::<StringArray>()?;
-        let segments = match segment_at {
-            Some(i) => Some(batch.column(i).as_any().downcast_ref::<Int64Array>()?),
-            None => None,
-        };
-        let columns: Vec<_> = hashed.iter().map(|&i| batch.column(i).clone()).collect();
-        let rows = converter.convert_columns(&columns).ok()?;
+    let others: Vec<usize> = (0..schema.fields().len()).filter(|&i| i != label_at && Some(i) != segment_at).collect();
+    let batches: Vec<RecordBatch> = reader.collect::<Result<_, _>>().ok()?;
+    let label_of = |batch: &RecordBatch| batch.column(label_at).as_any().downcast_ref::<StringArray>().cloned();
+
+    // Pass 1: each label's columns, those with a value in any of its rows. A ragged table
+    // (another label with more components adds a `y<k>` column, null in this label's rows)
+    // then leaves this label's digest alone.
+    let mut columns: BTreeMap<String, Vec<bool>> = BTreeMap::new();
+    for batch in &batches {
+        let labels = label_of(batch)?;
         for r in 0..batch.num_rows() {
             if labels.is_null(r) {
                 return None;
             }
+            let used = columns.entry(labels.value(r).to_string()).or_insert_with(|| vec![false; others.len()]);
+            for (k, &c) in others.iter().enumerate() {
+                used[k] |= !batch.column(c).is_null(r);
+            }
+        }
+    }
+    // Pass 2: each label's shape (its columns' names and types), then, in file order, its
+    // segment ordinals and rows over its columns in arrow's row format.
+    let mut converters: BTreeMap<Vec<usize>, RowConverter> = BTreeMap::new();
+    let mut hashers: BTreeMap<String, (Vec<usize>, blake3::Hasher)> = BTreeMap::new();
+    for (label, used) in &columns {
+        let own: Vec<usize> = others.iter().zip(used).filter(|(_, &u)| u).map(|(&c, _)| c).collect();
+        let mut shape = blake3::Hasher::new();
+        for &c in &own {
+            shape.update(format!("{}:{:?};", schema.field(c).name(), schema.field(c).data_type()).as_bytes());
+        }
+        if !converters.contains_key(&own) {
+            let fields = own.iter().map(|&c| SortField::new(schema.field(c).data_type().clone())).collect();
+            converters.insert(own.clone(), RowConverter::new(fields).ok()?);
+        }
+        hashers.insert(label.clone(), (own, shape));
+    }
+    let mut ordinals: BTreeMap<String, Vec<i64>> = BTreeMap::new();
+    for batch in &batches {
+        let labels = label_of(batch)?;
+        let segments = match segment_at {
+            Some(i) => Some(batch.column(i).as_any().downcast_ref::<Int64Array>()?.clone()),
+            None => None,
+        };
+        let mut rows_by_columns = BTreeMap::new();
+        for r in 0..batch.num_rows() {
             let label = labels.value(r);
-            let hasher = hashers.entry(label.to_string()).or_insert_with(|| shape.clone());
-            if let Some(segments) = segments {
-                let (seen, _) = ordinals.entry(label.to_string()).or_insert_with(|| (Vec::new(), 0));
+            let (own, hasher) = hashers.get_mut(label)?;
+            if let Some(segments) = &segments {
+                let seen = ordinals.entry(label.to_string()).or_default();
                 let id = segments.value(r);
                 let ordinal = seen.iter().position(|&s| s == id).unwrap_or_else(|| {
                     seen.push(id);
@@ -75,12 +97,16 @@ pub fn label_digests(path: &Path) -> Option<BTreeMap<String, String>> {
                 });
                 hasher.update(&(ordinal as u64).to_le_bytes());
             }
-            let row = rows.row(r);
+            if !rows_by_columns.contains_key(own) {
+                let arrays: Vec<_> = own.iter().map(|&c| batch.column(c).clone()).collect();
+                rows_by_columns.insert(own.clone(), converters.get(own)?.convert_columns(&arrays).ok()?);
+            }
+            let row = rows_by_columns.get(own)?.row(r);
             hasher.update(&(row.as_ref().len() as u64).to_le_bytes());
             hasher.update(row.as_ref());
         }
     }
-    Some(hashers.into_iter().map(|(label, h)| (label, h.finalize().to_hex().to_string())).collect())
+    Some(hashers.into_iter().map(|(label, (_, h))| (label, h.finalize().to_hex().to_string())).collect())
 }
 
 /// How the partitions of an input differ between two runs.
@@ -178,6 +204,33 @@ mod tests {
             delta.to_string(),
             "label `wave` changed, label `run` added, label `nod` removed; 1 label(s) unchanged"
         );
+    }
+
+    /// A ragged table (`y<k>` columns null where a label has fewer): the widest label
+    /// losing its last column changes its own digest only.
+    #[test]
+    fn a_ragged_column_belongs_to_the_labels_that_fill_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let write = |name: &str, y1: Option<Vec<Option<f64>>>| {
+            let path = dir.path().join(name);
+            let mut fields =
+                vec![Field::new("label", DataType::Utf8, false), Field::new("y0", DataType::Float64, true)];
+            let mut columns: Vec<ArrayRef> =
+                vec![Arc::new(StringArray::from(vec!["wide", "narrow"])), Arc::new(Float64Array::from(vec![1.0, 2.0]))];
+            if let Some(y1) = y1 {
+                fields.push(Field::new("y1", DataType::Float64, true));
+                columns.push(Arc::new(Float64Array::from(y1)));
+            }
+            let schema = Arc::new(Schema::new(fields));
+            let batch = RecordBatch::try_new(schema.clone(), columns).unwrap();
+            let mut writer = ArrowWriter::try_new(File::create(&path).unwrap(), schema, None).unwrap();
+            writer.write(&batch).unwrap();
+            writer.close().unwrap();
+            label_digests(&path).unwrap()
+        };
+        let (before, after) = (write("a.parquet", Some(vec![Some(3.0), None])), write("b.parquet", None));
+        assert_eq!(before["narrow"], after["narrow"]);
+        assert_ne!(before["wide"], after["wide"]);
     }
 
     #[test]

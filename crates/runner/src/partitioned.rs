@@ -36,9 +36,9 @@ use crate::hash::FileHasher;
 use crate::key::cache_key;
 use crate::lock::{FileRecord, LockEntry, LockFile, PartitionRecord};
 use crate::params::{canonical_json, ParamValue, Scalar};
-use crate::paths::ArtifactPath;
+use crate::paths::{file_name, ArtifactPath};
 use crate::pipeline::{Pipeline, Stage};
-use crate::run::{record_inputs, record_outputs, remove_stale_temps};
+use crate::run::{record_inputs, record_outputs, remove_stale_temps, say};
 
 /// One partitioned stage to run.
 pub(crate) struct Job<'a> {
@@ -71,19 +71,6 @@ struct Unit {
     to: Option<String>,
     stage: Stage,
     key: String,
-}
-
-/// A file or directory name for `name` (a label, or `stage[label]`): kept when it is made
-/// of letters, digits, `_`, `-`, `.`, `[` and `]` (and does not start with `.`), else those
-/// characters with the rest as `_`, plus 8 hex digits of its blake3 so that two names
-/// never share one.
-pub(crate) fn file_name(name: &str) -> String {
-    let plain = |c: char| c.is_ascii_alphanumeric() || "_-.[]".contains(c);
-    if !name.is_empty() && !name.starts_with('.') && name.chars().all(plain) {
-        return name.to_string();
-    }
-    let kept: String = name.chars().map(|c| if plain(c) { c } else { '_' }).collect();
-    format!("{}-{}", kept.trim_start_matches('.'), &blake3::hash(name.as_bytes()).to_hex()[..8])
 }
 
 /// Runs the stale partitions of `job`, merges every label into the stage's outputs, and
@@ -341,26 +328,9 @@ fn list<'a>(labels: impl Iterator<Item = &'a str>) -> String {
     format!(" ({}{more})", shown.join(", "))
 }
 
-fn say(log: &mut dyn Write, line: &str) {
-    let _ = writeln!(log, "{line}");
-    let _ = log.flush();
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Plain names stay; others keep their plain characters and gain a hash, so two
-    /// labels differing only in a replaced character get two directories.
-    #[test]
-    fn file_names_are_safe_and_distinct() {
-        assert_eq!(file_name("head_shake"), "head_shake");
-        assert_eq!(file_name("gplvm[Dance-2]"), "gplvm[Dance-2]");
-        let (a, b) = (file_name("walk/run"), file_name("walk run"));
-        assert!(a.starts_with("walk_run-") && b.starts_with("walk_run-") && a != b, "{a} {b}");
-        assert!(!file_name("..").starts_with('.') && !file_name("").is_empty());
-        assert!(!file_name("a/../../b").contains('/'));
-    }
 
     /// Labels are listed, at most eight by name.
     #[test]

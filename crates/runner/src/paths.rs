@@ -108,8 +108,33 @@ pub(crate) fn expand_glob(dir: &Path, declared: &str) -> Result<Vec<String>, Str
     Ok(names.into_iter().map(|n| if parent.is_empty() { n } else { format!("{parent}/{n}") }).collect())
 }
 
+/// A file or directory name for `name` (a label, or `stage[label]`): kept when it is made
+/// of letters, digits, `_`, `-`, `.`, `[` and `]` (and does not start with `.`), else those
+/// characters with the rest as `_`, plus 8 hex digits of its blake3 so that two names
+/// never share one.
+pub(crate) fn file_name(name: &str) -> String {
+    let plain = |c: char| c.is_ascii_alphanumeric() || "_-.[]".contains(c);
+    if !name.is_empty() && !name.starts_with('.') && name.chars().all(plain) {
+        return name.to_string();
+    }
+    let kept: String = name.chars().map(|c| if plain(c) { c } else { '_' }).collect();
+    format!("{}-{}", kept.trim_start_matches('.'), &blake3::hash(name.as_bytes()).to_hex()[..8])
+}
+
 #[cfg(test)]
 mod tests {
+    /// Plain names stay; others keep their plain characters and gain a hash, so two
+    /// labels differing only in a replaced character get two directories.
+    #[test]
+    fn file_names_are_safe_and_distinct() {
+        assert_eq!(file_name("head_shake"), "head_shake");
+        assert_eq!(file_name("gplvm[Dance-2]"), "gplvm[Dance-2]");
+        let (a, b) = (file_name("walk/run"), file_name("walk run"));
+        assert!(a.starts_with("walk_run-") && b.starts_with("walk_run-") && a != b, "{a} {b}");
+        assert!(!file_name("..").starts_with('.') && !file_name("").is_empty());
+        assert!(!file_name("a/../../b").contains('/'));
+    }
+
     use super::*;
 
     #[test]

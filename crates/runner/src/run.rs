@@ -55,6 +55,10 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
     lock.pipeline.clone_from(&pipeline.name);
     lock.stages.retain(|name, _| pipeline.stage(name).is_some());
 
+    // Jobs a killed runner left would write outputs under this run: cancel them first.
+    for job in crate::slurm::cancel_leftovers(&pipeline)? {
+        say(log, &format!("reprise: cancelled Slurm job {} ({}), left running by an earlier run", job.job, job.stage));
+    }
     if to_run.is_empty() {
         let scope = args.to.as_ref().map_or_else(String::new, |to| format!(" up to `{to}`"));
         let seconds = started.elapsed().as_secs_f64();
@@ -67,9 +71,6 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
     }
 
     let bins = preflight(&pipeline, &dag, &plan, &to_run)?;
-    for job in crate::slurm::cancel_leftovers(&pipeline)? {
-        say(log, &format!("reprise: cancelled Slurm job {} ({}), left running by an earlier run", job.job, job.stage));
-    }
     let executor = executor(args);
     let interrupt = exec::Interrupt::watch();
     say(log, &format!("{:>10} {} of {} stages", "checking", to_run.len(), order.len()));
@@ -287,16 +288,12 @@ pub(crate) fn invoke_measured(
             std::fs::create_dir_all(parent).map_err(|source| Error::Io { path: parent.to_path_buf(), source })?;
         }
     }
-    let stats = pipeline.artifacts.abs.join(format!(".{}.stats.json", crate::partitioned::file_name(&stage.name)));
+    let stats = pipeline.artifacts.abs.join(format!(".{}.stats.json", crate::paths::file_name(&stage.name)));
     let _ = std::fs::create_dir_all(&pipeline.artifacts.abs);
     let _ = std::fs::remove_file(&stats);
     let call = exec::Call { stats: Some(&stats), plain_progress, ..Default::default() };
     let outcome = exec::invoke(stage, &bin.path, &pipeline.dir, call, interrupt)?;
-    let peak_rss_mb = std::fs::read_to_string(&stats)
-        .ok()
-        .and_then(|text| serde_json::from_str::<serde_json::Value>(&text).ok())
-        .and_then(|v| v.get("peak_rss_bytes").and_then(serde_json::Value::as_f64))
-        .map(|bytes| bytes / 1_048_576.0);
+    let peak_rss_mb = exec::read_peak(&stats);
     let _ = std::fs::remove_file(&stats);
     match outcome {
         Outcome::Success => Ok(peak_rss_mb),
@@ -380,8 +377,9 @@ fn hold_run_lock(pipeline: &Pipeline) -> Result<std::fs::File> {
     }
 }
 
-/// Writes one progress line and flushes it, so it lands before the next child's output.
-fn say(log: &mut dyn Write, line: &str) {
-    let _ = writeln!(log, "{line}");
+/// Writes one progress line in one write (stages running beside it write to the same
+/// stderr) and flushes it, so it lands whole and before the next child's output.
+pub(crate) fn say(log: &mut dyn Write, line: &str) {
+    let _ = log.write_all(format!("{line}\n").as_bytes());
     let _ = log.flush();
 }

@@ -101,16 +101,32 @@ pub fn in_flight(jobs: &[JobRecord]) -> Option<Vec<(JobRecord, String)>> {
     Some(out)
 }
 
-/// Cancels the jobs a killed runner left (listed in the jobs file, still in the queue);
-/// returns what it cancelled.
+/// Cancels the jobs a killed runner left (listed in the jobs file, still in the queue)
+/// and waits until the queue holds none of them; returns what it cancelled. Where the
+/// queue cannot be asked, the jobs stay listed and the run is refused.
 pub fn cancel_leftovers(pipeline: &Pipeline) -> Result<Vec<JobRecord>> {
+    const PATIENCE: Duration = Duration::from_secs(60);
     let listed = listed_jobs(pipeline);
     if listed.is_empty() {
         return Ok(Vec::new());
     }
-    let live = in_flight(&listed).unwrap_or_default();
+    let unknown = |why: &str| Error::Slurm {
+        stage: listed[0].stage.clone(),
+        message: format!(
+            "{} lists jobs of an earlier run, and {why}; cancel them (`scancel`) and remove the file",
+            jobs_file(pipeline).display()
+        ),
+    };
+    let live = in_flight(&listed).ok_or_else(|| unknown("`squeue` cannot be asked whether they still run"))?;
     for (job, _) in &live {
         scancel(&job.job, false);
+    }
+    let deadline = Instant::now() + PATIENCE;
+    while !in_flight(&listed).ok_or_else(|| unknown("`squeue` failed"))?.is_empty() {
+        if Instant::now() > deadline {
+            return Err(unknown("they are still in the queue a minute after `scancel`"));
+        }
+        std::thread::sleep(POLL);
     }
     write_jobs(pipeline, &[])?;
     Ok(live.into_iter().map(|(j, _)| j).collect())
@@ -176,9 +192,8 @@ fn script(pipeline: &Pipeline, tasks: &[Task<'_>], dir: &Path) -> String {
     }
     s.push_str("*) echo \"reprise: no task $SLURM_ARRAY_TASK_ID in this array\" >&2; false ;;\nesac\n");
     s.push_str("code=$?\nend=$(date +%s.%N)\n");
-    let exit = dir.join("$SLURM_ARRAY_TASK_ID.exit");
-    let exit = exit.to_string_lossy();
-    let _ = writeln!(s, "echo \"$code $start $end\" > \"{exit}.tmp\" && mv \"{exit}.tmp\" \"{exit}\"");
+    let _ = writeln!(s, "exit_file={}/\"$SLURM_ARRAY_TASK_ID\".exit", quote(&dir.to_string_lossy()));
+    s.push_str("echo \"$code $start $end\" > \"$exit_file.tmp\" && mv \"$exit_file.tmp\" \"$exit_file\"\n");
     s.push_str("exit $code\n");
     s
 }
@@ -193,9 +208,17 @@ fn read_exit(dir: &Path, i: usize) -> Option<(i32, f64)> {
     Some((code, (end - start).max(0.0)))
 }
 
-/// The last [`TAIL_LINES`] lines of the task's output.
+/// The last [`TAIL_LINES`] lines of the task's output (read from its last 64 KiB).
 fn tail(path: &Path) -> String {
-    let text = std::fs::read_to_string(path).unwrap_or_default();
+    use std::io::{Read, Seek, SeekFrom};
+    const MAX: u64 = 64 * 1024;
+    let mut bytes = Vec::new();
+    if let Ok(mut file) = std::fs::File::open(path) {
+        let len = file.metadata().map_or(0, |m| m.len());
+        let _ = file.seek(SeekFrom::Start(len.saturating_sub(MAX)));
+        let _ = file.take(MAX).read_to_end(&mut bytes);
+    }
+    let text = String::from_utf8_lossy(&bytes);
     let lines: Vec<&str> = text.lines().collect();
     lines[lines.len().saturating_sub(TAIL_LINES)..].join("\n")
 }
@@ -228,7 +251,7 @@ impl Slurm {
             .arg("--parsable")
             .arg(format!("--array=0-{}", n - 1))
             .arg(format!("--job-name=reprise-{name}"))
-            .arg(format!("--output={}/%a.log", dir.display()))
+            .arg(format!("--output={}/%a.log", dir.display().to_string().replace('\\', "\\\\").replace('%', "%%")))
             .arg("--export=ALL");
         for (flag, value) in [
             ("--partition", &self.options.partition),
@@ -263,12 +286,37 @@ impl Executor for Slurm {
             return Ok(());
         }
         Self::preflight(pipeline, tasks)?;
+        // Arrays of at most MAX_ARRAY tasks (Slurm's default MaxArraySize is 1001), one
+        // after the other.
+        for (c, chunk) in tasks.chunks(MAX_ARRAY).enumerate() {
+            let offset = c * MAX_ARRAY;
+            self.run_array(pipeline, chunk, interrupt, &mut |i, result| done(offset + i, result))?;
+        }
+        Ok(())
+    }
+}
+
+/// The most tasks in one array.
+const MAX_ARRAY: usize = 1000;
+
+/// How long the executor waits for exit files once the queue holds none of a job's tasks
+/// (a shared filesystem may show a new file late).
+const EXIT_FILE_GRACE: Duration = Duration::from_secs(60);
+
+impl Slurm {
+    /// Submits `tasks` as one array and waits for it.
+    fn run_array(
+        &self,
+        pipeline: &Pipeline,
+        tasks: &[Task<'_>],
+        interrupt: &Interrupt,
+        done: &mut dyn FnMut(usize, Result<Done>) -> Result<()>,
+    ) -> Result<()> {
         // A partition's name is `stage[label]`; stage names hold no `[`.
         let stage = tasks[0].stage.name.split('[').next().unwrap_or_default().to_string();
         let fail = |message: String| Error::Slurm { stage: stage.clone(), message };
-        let name = crate::partitioned::file_name(&stage);
-        let dir = pipeline.artifacts.abs.join(".slurm").join(format!("{name}-{}-{}", std::process::id(), unique()));
-        std::fs::create_dir_all(&dir).map_err(|source| Error::Io { path: dir.clone(), source })?;
+        let name = crate::paths::file_name(&stage);
+        let dir = fresh_dir(&pipeline.artifacts.abs.join(".slurm"), &name)?;
         for task in tasks {
             for (_, path) in &task.stage.outputs {
                 if let Some(parent) = path.abs.parent() {
@@ -287,106 +335,131 @@ impl Executor for Slurm {
         listed.push(record.clone());
         write_jobs(pipeline, &listed)?;
 
-        let result = self.wait(&job, tasks, &dir, interrupt, done);
+        let result = wait(&job, tasks, &dir, interrupt, done);
         if result.is_err() {
             scancel(&job, false);
         }
         let rest: Vec<JobRecord> = listed_jobs(pipeline).into_iter().filter(|j| *j != record).collect();
-        write_jobs(pipeline, &rest)?;
+        if let Err(e) = write_jobs(pipeline, &rest) {
+            return result.and(Err(e));
+        }
         result
     }
 }
 
-impl Slurm {
-    /// Polls until every task of `job` ended, reporting each as its exit file appears.
-    fn wait(
-        &self,
-        job: &str,
-        tasks: &[Task<'_>],
-        dir: &Path,
-        interrupt: &Interrupt,
-        done: &mut dyn FnMut(usize, Result<Done>) -> Result<()>,
-    ) -> Result<()> {
-        let stage = |i: usize| tasks[i].stage.name.clone();
-        let mut reported = vec![false; tasks.len()];
-        let mut first_error: Option<Error> = None;
-        let mut squeue_failures = 0;
-        let mut last_queue_check = Instant::now() - Duration::from_secs(1);
-        loop {
-            if let Some(signal) = interrupt.received() {
-                scancel(job, false);
-                return Err(Error::Interrupted {
-                    stage: Some(format!("{} (Slurm job {job}, cancelled)", stage(0))),
-                    signal,
-                    name: crate::exec::signal_name(signal),
-                });
-            }
-            for (i, seen) in reported.iter_mut().enumerate() {
-                if *seen {
-                    continue;
-                }
-                let Some((code, seconds)) = read_exit(dir, i) else { continue };
-                *seen = true;
-                let result = if code == 0 {
-                    Ok(Done { seconds, peak_rss_mb: peak(dir, i), job: Some(format!("{job}_{i}")) })
-                } else {
-                    scancel(job, true);
-                    Err(Error::TaskFailed {
-                        stage: stage(i),
-                        code,
-                        job: format!("{job}_{i}"),
-                        output: tail(&dir.join(format!("{i}.log"))),
-                    })
-                };
-                let outcome = match result {
-                    Ok(d) => done(i, Ok(d)),
-                    Err(e) => Err(e),
-                };
-                if let Err(e) = outcome {
-                    first_error.get_or_insert(e);
-                }
-            }
-            if reported.iter().all(|&r| r) {
-                return first_error.map_or(Ok(()), Err);
-            }
-            if last_queue_check.elapsed() >= Duration::from_secs(1) {
-                last_queue_check = Instant::now();
-                match squeue(job) {
-                    Ok(states) if states.is_empty() => {
-                        // The queue is empty: give the exit files a moment, then any
-                        // task without one ended without running to its end.
-                        std::thread::sleep(POLL);
-                        if let Some(i) = (0..tasks.len()).find(|&i| !reported[i] && read_exit(dir, i).is_none()) {
-                            return Err(first_error.unwrap_or_else(|| Error::Slurm {
-                                stage: stage(i),
-                                message: format!(
-                                    "task {job}_{i} ended without an exit status (cancelled, out of time, or its \
-                                     node failed); its output ({}):\n{}",
-                                    dir.join(format!("{i}.log")).display(),
-                                    tail(&dir.join(format!("{i}.log")))
-                                ),
-                            }));
-                        }
-                    }
-                    Ok(_) => squeue_failures = 0,
-                    Err(message) => {
-                        squeue_failures += 1;
-                        if squeue_failures >= 10 {
-                            return Err(Error::Slurm { stage: stage(0), message });
-                        }
-                    }
-                }
-            }
-            std::thread::sleep(POLL);
+/// A new directory `<parent>/<name>-<pid>-<n>` that no earlier run used (a container may
+/// give every run the same pid).
+fn fresh_dir(parent: &Path, name: &str) -> Result<PathBuf> {
+    std::fs::create_dir_all(parent).map_err(|source| Error::Io { path: parent.to_path_buf(), source })?;
+    loop {
+        let dir = parent.join(format!("{name}-{}-{}", std::process::id(), unique()));
+        match std::fs::create_dir(&dir) {
+            Ok(()) => return Ok(dir),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+            Err(source) => return Err(Error::Io { path: dir, source }),
         }
     }
 }
 
-/// The peak memory (MB) the task reported in its statistics file.
-fn peak(dir: &Path, i: usize) -> Option<f64> {
-    let text = std::fs::read_to_string(dir.join(format!("{i}.stats.json"))).ok()?;
-    let value: serde_json::Value = serde_json::from_str(&text).ok()?;
-    value.get("peak_rss_bytes")?.as_f64().map(|b| b / 1_048_576.0)
+/// How task `i` of `job` ended, from its exit file: its stage's success, or the error
+/// its stage's exit code means (a code above 128 is bash's report of a signal).
+fn outcome(job: &str, task: &Task<'_>, dir: &Path, i: usize, code: i32, seconds: f64) -> Result<Done> {
+    let id = format!("{job}_{i}");
+    match code {
+        0 => Ok(Done {
+            seconds,
+            peak_rss_mb: crate::exec::read_peak(&dir.join(format!("{i}.stats.json"))),
+            job: Some(id),
+        }),
+        129..=192 => Err(Error::StageKilled {
+            stage: format!("{} (job {id})", task.stage.name),
+            signal: code - 128,
+            name: crate::exec::signal_name(code - 128),
+        }),
+        _ => Err(Error::TaskFailed {
+            stage: task.stage.name.clone(),
+            code,
+            job: id,
+            output: tail(&dir.join(format!("{i}.log"))),
+        }),
+    }
+}
+
+/// Polls until every task of `job` ended, reporting each to `done` as its exit file
+/// appears; after a failure the job's pending tasks are cancelled. Tasks still without an
+/// exit file [`EXIT_FILE_GRACE`] after the queue emptied ended without running to their
+/// end (cancelled, out of time, or their node failed).
+fn wait(
+    job: &str,
+    tasks: &[Task<'_>],
+    dir: &Path,
+    interrupt: &Interrupt,
+    done: &mut dyn FnMut(usize, Result<Done>) -> Result<()>,
+) -> Result<()> {
+    let mut reported = vec![false; tasks.len()];
+    let mut first_error: Option<Error> = None;
+    let mut squeue_failures = 0;
+    let mut last_queue_check = Instant::now() - Duration::from_secs(1);
+    let mut queue_empty_since: Option<Instant> = None;
+    loop {
+        if let Some(signal) = interrupt.received() {
+            scancel(job, false);
+            return Err(Error::Interrupted {
+                stage: Some(format!("{} (Slurm job {job}, cancelled)", tasks[0].stage.name)),
+                signal,
+                name: crate::exec::signal_name(signal),
+            });
+        }
+        for (i, seen) in reported.iter_mut().enumerate() {
+            if *seen {
+                continue;
+            }
+            let Some((code, seconds)) = read_exit(dir, i) else { continue };
+            *seen = true;
+            let result = outcome(job, &tasks[i], dir, i, code, seconds);
+            if result.is_err() {
+                scancel(job, true);
+            }
+            if let Err(e) = done(i, result) {
+                first_error.get_or_insert(e);
+            }
+        }
+        if reported.iter().all(|&r| r) {
+            return first_error.map_or(Ok(()), Err);
+        }
+        if let Some(since) = queue_empty_since {
+            // After a failure the pending tasks were cancelled: they leave no exit file.
+            if let Some(e) = first_error.take() {
+                return Err(e);
+            }
+            if since.elapsed() >= EXIT_FILE_GRACE {
+                let i = reported.iter().position(|r| !r).unwrap_or_default();
+                let log = dir.join(format!("{i}.log"));
+                return Err(Error::Slurm {
+                    stage: tasks[i].stage.name.clone(),
+                    message: format!(
+                        "task {job}_{i} ended without an exit status (cancelled, out of time, or its node \
+                         failed); its output ({}):\n{}",
+                        log.display(),
+                        tail(&log)
+                    ),
+                });
+            }
+        } else if last_queue_check.elapsed() >= Duration::from_secs(1) {
+            last_queue_check = Instant::now();
+            match squeue(job) {
+                Ok(states) if states.is_empty() => queue_empty_since = Some(Instant::now()),
+                Ok(_) => squeue_failures = 0,
+                Err(message) => {
+                    squeue_failures += 1;
+                    if squeue_failures >= 10 {
+                        return Err(Error::Slurm { stage: tasks[0].stage.name.clone(), message });
+                    }
+                }
+            }
+        }
+        std::thread::sleep(POLL);
+    }
 }
 
 /// A number distinct for each batch of this process.
