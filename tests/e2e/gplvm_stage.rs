@@ -69,15 +69,24 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     let bridges = reprise_artifact::bridges::read(&a("bridges")).unwrap();
     let pairs: std::collections::BTreeSet<(&str, &str)> =
         bridges.iter().map(|b| (b.from.as_str(), b.to.as_str())).collect();
-    // The absolute threshold the stage derived from the data, and the bridges it kept: every
-    // one within it; a pair without one is left to routing (the scripts still run below).
-    let max: f64 = out
+    // The absolute threshold the stage derived from each pair's data (its table's last
+    // column: from, to, candidates, kept, best, frame motion, max mesh), and the bridges it
+    // kept: every one within its pair's; a pair without one is left to routing (the scripts
+    // still run below).
+    let max: std::collections::BTreeMap<(String, String), f64> = out
         .lines()
-        .find_map(|l| l.split("bridges keep mesh distances up to ").nth(1))
-        .and_then(|v| v.trim().parse().ok())
-        .unwrap_or_else(|| panic!("no threshold line in {out}"));
+        .filter_map(|l| {
+            let w: Vec<&str> = l.split_whitespace().collect();
+            let max = w.get(6)?.parse().ok().filter(|_| w.len() == 7 && w[2].parse::<usize>().is_ok())?;
+            Some(((w[0].to_string(), w[1].to_string()), max))
+        })
+        .collect();
+    assert_eq!(max.len(), 56, "a threshold for every ordered pair in {out}");
     assert!((1..=56).contains(&pairs.len()), "{} ordered pairs bridged", pairs.len());
-    assert!(bridges.iter().all(|b| b.mesh_distance.is_some_and(|m| m.is_finite() && m <= max + 1e-4) && b.rank >= 1));
+    assert!(bridges.iter().all(|b| {
+        let limit = max[&(b.from.clone(), b.to.clone())];
+        b.mesh_distance.is_some_and(|m| m.is_finite() && m <= limit + 1e-4) && b.rank >= 1
+    }));
     let curves = reprise_artifact::curves::read(&a("curves")).unwrap();
     let scripts: std::collections::BTreeSet<&str> = curves.script.iter().map(String::as_str).collect();
     assert_eq!(scripts.into_iter().collect::<Vec<_>>(), ["neutral_moves", "tic_tac_toe", "tour"]);
