@@ -99,7 +99,9 @@ pub fn merge(
     let tables = parts.iter().map(|p| Table::read_any(p.path)).collect::<Result<Vec<_>>>()?;
     let shared = shared_metadata(tables[0].metadata());
     for table in &tables[1..] {
-        if let Some((key, _)) = shared_metadata(table.metadata()).iter().find(|(k, v)| shared.get(*k) != Some(*v)) {
+        let own = shared_metadata(table.metadata());
+        let differs = |k: &&String| own.get(*k) != shared.get(*k);
+        if let Some(key) = own.keys().chain(shared.keys()).find(differs) {
             return Err(table.invalid(format!(
                 "its metadata `{key}` differs from the partition `{}`'s; the partitions come from different runs",
                 first.path.display()
