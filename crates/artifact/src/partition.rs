@@ -279,6 +279,15 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("b.parquet") && e.contains("reprise.params"), "{e}");
+        // A metadata key only one part has, whichever part comes first.
+        let cols = Columns::new().str("label", &["run"]).i64("segment_id", vec![1]).f64("v", vec![1.0]);
+        let extra = [("reprise.extra".to_string(), "1".to_string())];
+        table::write(&b, KIND, cols, &Provenance::new("s", "1", serde_json::json!({"q": 3})), &extra).unwrap();
+        for parts in [[("a", &a, "walk"), ("b", &b, "run")], [("b", &b, "run"), ("a", &a, "walk")]] {
+            let parts: Vec<Part<'_>> = parts.iter().map(|(_, p, l)| Part { path: p, label: l, to: None }).collect();
+            let e = merge(&parts, &out, &inputs(), &segments).unwrap_err().to_string();
+            assert!(e.contains("`reprise.extra` differs"), "{e}");
+        }
         let e =
             merge(&[Part { path: &a, label: "run", to: None }], &out, &inputs(), &segments).unwrap_err().to_string();
         assert!(e.contains("a.parquet: row 0: label is not `run`"), "{e}");
