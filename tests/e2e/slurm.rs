@@ -28,11 +28,12 @@ impl Cluster {
             );
             return None;
         }
-        let lab = tempfile::tempdir().unwrap();
+        // The guard first: if the start fails half way, dropping it stops what did start.
+        let cluster = Self { lab: tempfile::tempdir().unwrap() };
         // Ports of its own, so a cluster already running here is not disturbed.
         let port = || std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port().to_string();
         let out = Command::new(repo().join("tests/slurm/start-slurm.sh"))
-            .env("SLURM_LAB", lab.path())
+            .env("SLURM_LAB", cluster.lab.path())
             .env("SLURM_LAB_CTLD_PORT", port())
             .env("SLURM_LAB_SLURMD_PORT", port())
             .output()
@@ -43,7 +44,7 @@ impl Cluster {
             String::from_utf8_lossy(&out.stdout),
             String::from_utf8_lossy(&out.stderr)
         );
-        Some(Self { lab })
+        Some(cluster)
     }
 
     fn conf(&self) -> PathBuf {
