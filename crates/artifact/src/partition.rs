@@ -35,6 +35,16 @@ pub const LABEL: &str = "label";
 /// The column numbering segments across labels.
 pub const SEGMENT: &str = "segment_id";
 
+/// The ordinal of segment `id` among the segments `seen` so far (in order of first
+/// appearance), adding it if new: how a label's segments are numbered within the label,
+/// since `segment_id`s are numbered across labels.
+pub fn segment_ordinal(seen: &mut Vec<i64>, id: i64) -> usize {
+    seen.iter().position(|&s| s == id).unwrap_or_else(|| {
+        seen.push(id);
+        seen.len() - 1
+    })
+}
+
 /// One label of a table: its segment ids in order of first appearance, and its rows.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct LabelRows {
@@ -61,10 +71,7 @@ pub fn labels_in_order(path: &Path) -> Result<Vec<LabelRows>> {
         });
         order[i].rows += 1;
         if let Some(segments) = &segments {
-            let id = segments[r];
-            if !order[i].segments.contains(&id) {
-                order[i].segments.push(id);
-            }
+            segment_ordinal(&mut order[i].segments, segments[r]);
         }
     }
     Ok(order)
@@ -195,10 +202,7 @@ fn renumber(table: &Table, label: &str, segments: &BTreeMap<String, Vec<i64>>) -
     let mut seen: Vec<i64> = Vec::new();
     let mut ids = Vec::with_capacity(old.len());
     for (row, &id) in old.iter().enumerate() {
-        let ordinal = seen.iter().position(|&s| s == id).unwrap_or_else(|| {
-            seen.push(id);
-            seen.len() - 1
-        });
+        let ordinal = segment_ordinal(&mut seen, id);
         let Some(&now) = current.get(ordinal) else {
             return Err(table.invalid(format!(
                 "row {row}: label `{label}` has {} segment(s) in the current labeled frames, this partition more; \

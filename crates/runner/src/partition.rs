@@ -20,10 +20,10 @@ use arrow::row::{RowConverter, SortField};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
 /// The column that names a row's partition.
-pub const PARTITION_COLUMN: &str = "label";
+pub const PARTITION_COLUMN: &str = reprise_artifact::partition::LABEL;
 
 /// The column hashed by ordinal within its partition.
-pub const SEGMENT_COLUMN: &str = "segment_id";
+pub const SEGMENT_COLUMN: &str = reprise_artifact::partition::SEGMENT;
 
 /// Each label's digest (hex blake3), or `None` when `path` is not a Parquet file with a
 /// Utf8 `label` column or cannot be read (the file's own content hash still decides
@@ -90,11 +90,7 @@ pub fn label_digests(path: &Path) -> Option<BTreeMap<String, String>> {
             let (own, hasher) = hashers.get_mut(label)?;
             if let Some(segments) = &segments {
                 let seen = ordinals.entry(label.to_string()).or_default();
-                let id = segments.value(r);
-                let ordinal = seen.iter().position(|&s| s == id).unwrap_or_else(|| {
-                    seen.push(id);
-                    seen.len() - 1
-                });
+                let ordinal = reprise_artifact::partition::segment_ordinal(seen, segments.value(r));
                 hasher.update(&(ordinal as u64).to_le_bytes());
             }
             if !rows_by_columns.contains_key(own) {
