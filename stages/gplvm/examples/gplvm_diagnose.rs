@@ -58,7 +58,7 @@ fn main() {
     let start = std::time::Instant::now();
     let result = fit_observed(data.fit_data(), &config, |e| {
         count += 1;
-        if !count.is_multiple_of(every) || !e.info.value.is_finite() {
+        if !count.is_multiple_of(every) || !e.info.value.is_finite() || e.params.len() != layout.len() {
             return;
         }
         let h = layout.hyper(e.params);
@@ -90,8 +90,9 @@ fn main() {
     });
     match result {
         Ok(f) => println!(
-            "done in {:.1} s: {} iterations, {} evaluations, {:?}, E = {:.6}, measures {:?}; sf2/varY = {:.4e}, sw2 used/varY = {:.4e}, ell = {}",
+            "done in {:.1} s: stages {:?}, {} iterations, {} evaluations, {:?}, E = {:.6}, measures {:?}; sf2/varY = {:.4e}, sw2 used/varY = {:.4e}, ell = {}",
             start.elapsed().as_secs_f64(),
+            f.stage_iterations,
             f.info.iterations,
             f.info.evaluations,
             f.info.reason,
