@@ -119,6 +119,53 @@ impl Pca {
         Ok(pca)
     }
 
+    /// The top `k` principal components of wide data ($D \gg N$) through the rows' Gram
+    /// matrix: with $\tilde Z$ centred in place (it takes `z` by value),
+    /// $G = \tilde Z\tilde Z^\top = U\Lambda U^\top$ ($N\times N$), $\sigma_i = \sqrt{\lambda_i}$
+    /// and $v_i = \tilde Z^\top u_i/\sigma_i$. The same components as [`Self::fit`] (up to
+    /// rounding: $G$ squares the condition number, so components below about
+    /// $10^{-7}\sigma_1$ are not resolved and are dropped) in $O(N^2 + kD)$ memory beyond
+    /// the input, where the thin SVD holds several $N\times D$ copies. `kept` is the
+    /// number of directions returned ($\le k$); `singular_values` has them all, so
+    /// [`Self::explained`] stays relative to the whole spectrum.
+    pub fn fit_wide(mut z: Vec<f64>, cols: usize, k: usize) -> Result<Self, PcaError> {
+        if cols == 0 || !z.len().is_multiple_of(cols) || z.len() / cols < 2 {
+            return Err(PcaError::Shape { values: z.len(), cols });
+        }
+        let rows = z.len() / cols;
+        let (mean, _) = crate::stats::mean_std(&z, cols);
+        z.chunks_exact_mut(cols).for_each(|r| r.iter_mut().zip(&mean).for_each(|(v, m)| *v -= m));
+        // Row-major N × D is column-major D × N: A = Z̃ᵀ, G = AᵀA.
+        let a = faer::MatRef::from_column_major_slice(&z, cols, rows);
+        let mut g = faer::Mat::<f64>::zeros(rows, rows);
+        faer::linalg::matmul::matmul(g.as_mut(), faer::Accum::Replace, a.transpose(), a, 1.0, faer::Par::Seq);
+        let total: f64 = (0..rows).map(|i| g[(i, i)]).sum();
+        if total <= 0.0 {
+            return Err(PcaError::NoVariance);
+        }
+        let evd = g.self_adjoint_eigen(faer::Side::Lower).map_err(|_| PcaError::NoConvergence)?;
+        let (lambda, u) = (evd.S().column_vector(), evd.U());
+        // Descending; eigenvalues below the Gram matrix's rounding level are noise.
+        let tiny = lambda[rows - 1] * 1e-14 * rows as f64;
+        let order: Vec<usize> = (0..rows).rev().take_while(|&i| lambda[i] > tiny).collect();
+        let singular_values: Vec<f64> = order.iter().map(|&i| lambda[i].sqrt()).collect();
+        let kept = k.min(order.len());
+        let mut directions = Vec::with_capacity(kept * cols);
+        for (&i, s) in order.iter().zip(&singular_values).take(kept) {
+            let mut v = vec![0.0; cols];
+            for (j, row) in z.chunks_exact(cols).enumerate() {
+                let w = u[(j, i)] / s;
+                v.iter_mut().zip(row).for_each(|(v, r)| *v += w * r);
+            }
+            let big = (0..cols).max_by(|&a, &b| v[a].abs().total_cmp(&v[b].abs())).unwrap_or(0);
+            if v[big] < 0.0 {
+                v.iter_mut().for_each(|x| *x = -*x);
+            }
+            directions.extend(v);
+        }
+        Ok(Self { mean, directions, singular_values, total, kept, cols })
+    }
+
     /// Number of columns D.
     pub fn dim(&self) -> usize {
         self.cols
@@ -177,6 +224,31 @@ mod tests {
                 (0..d).map(|c| mean[c] + (0..k).map(|j| a[j] * dirs[j * d + c]).sum::<f64>()).collect::<Vec<_>>()
             })
             .collect()
+    }
+
+    /// The Gram route finds the thin SVD's components of a wide matrix: same singular
+    /// values, same directions (same signs), same mean and total, `kept` = the k asked.
+    #[test]
+    fn fit_wide_agrees_with_the_svd() {
+        let (n, d) = (40, 500);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let z: Vec<f64> =
+            (0..n * d).map(|i| rng.gen_range(-1.0..1.0) * (1.0 + 5.0 / (1.0 + (i % d) as f64 / 7.0))).collect();
+        let svd = Pca::fit(&z, d, &PcaParams { variance: 1.0, min_components: 1, max_components: n }).unwrap();
+        let gram = Pca::fit_wide(z, d, 12).unwrap();
+        assert_eq!(gram.kept, 12);
+        assert_eq!(gram.directions.len(), 12 * d);
+        assert_eq!(gram.singular_values.len(), svd.singular_values.len());
+        for (a, b) in gram.singular_values.iter().zip(&svd.singular_values) {
+            assert!((a - b).abs() < 1e-9 * svd.singular_values[0], "{a} vs {b}");
+        }
+        for (a, b) in gram.directions.iter().zip(&svd.directions[..12 * d]) {
+            assert!((a - b).abs() < 1e-8, "{a} vs {b}");
+        }
+        assert!((gram.total - svd.total).abs() < 1e-9 * svd.total);
+        assert!(gram.mean.iter().zip(&svd.mean).all(|(a, b)| (a - b).abs() < 1e-12));
+        assert!(matches!(Pca::fit_wide(vec![1.0; 2 * d], d, 3), Err(PcaError::NoVariance)));
+        assert!(matches!(Pca::fit_wide(vec![1.0; d], d, 3), Err(PcaError::Shape { .. })));
     }
 
     /// Shapes tall, wide and square: a rank-k matrix has exactly k nonzero components,

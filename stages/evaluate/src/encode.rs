@@ -11,7 +11,7 @@
 //! the smallest count whose mean per-frame RMS vertex error is at most the target
 //! ([`Encoded::target`]), capped at [`MAX_COMPONENTS`].
 
-use reprise_numerics::pca::{Pca, PcaParams};
+use reprise_numerics::pca::Pca;
 use reprise_stagekit::StageResult;
 
 /// At most this many basis vectors.
@@ -80,14 +80,12 @@ pub fn encode(frames: usize, dim: usize, meshes: &MeshSource<'_>, target: f64) -
     }
     let stride = frames.div_ceil(FIT_FRAMES).max(1);
     let fit = meshes(&(0..frames).step_by(stride).collect::<Vec<_>>())?;
-    let params = PcaParams { variance: 1.0, min_components: 1, max_components: MAX_COMPONENTS };
-    let (mean, directions, r) = match Pca::fit(&fit, dim, &params) {
-        Ok(p) => {
-            let r = p.kept.min(MAX_COMPONENTS);
-            (p.mean.clone(), p.directions[..r * dim].to_vec(), r)
-        }
+    let first = fit[..dim].to_vec();
+    // The Gram route: the fit frames are few (≤ FIT_FRAMES) and wide (3V values).
+    let (mean, directions, r) = match Pca::fit_wide(fit, dim, MAX_COMPONENTS) {
+        Ok(p) => (p.mean, p.directions, p.kept),
         // One distinct frame (or fewer than two fit rows): the mean alone.
-        Err(_) => (fit[..dim].to_vec(), Vec::new(), 0),
+        Err(_) => (first, Vec::new(), 0),
     };
     // Per frame: coordinates in all r directions and the squared distance to the mean.
     let mut coords: Vec<Vec<f64>> = Vec::with_capacity(frames);

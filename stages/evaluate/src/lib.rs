@@ -259,11 +259,20 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     let labeled = LabeledFrames::read(&args.labeled_frames)?;
     let rig = open_rig(&Controls::read(&args.controls)?, &labeled.frames.controls)?;
     let reqs = transitions::read_requests(&args.requests)?;
-    let systems: Vec<System> = args
-        .systems()
-        .into_iter()
-        .map(|(id, a, c, r)| System::load(id, a, c, r, &reqs, &labeled.frames.controls))
-        .collect::<StageResult<_>>()?;
+    // Each system's variety as it is loaded: the reseeded curves are only for that, and
+    // each set is dropped before the next system is read (the freed memory is reused).
+    let (mut systems, mut varieties, mut deterministic) = (Vec::new(), Vec::new(), Vec::new());
+    for (id, a, c, r) in args.systems() {
+        let system = System::load(id, a, c, r, &reqs, &labeled.frames.controls)?;
+        match system.reseeded(&labeled.frames.controls)? {
+            Some(again) => {
+                let var = variety(&rig, &system, &again)?;
+                varieties.push(metric(&system.id, "variety", "all", "all", &var, "mesh units", 7));
+            }
+            None => deterministic.push(system.id.clone()),
+        }
+        systems.push(system);
+    }
     let labels = label_order(&labeled);
     let scale_rows = scales::read(&args.scales)?;
     let weight = scales::mean_weights(&scale_rows, &labeled.frames.controls);
@@ -301,16 +310,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
             out.extend(aggregate::paired((&a.id, &measured[i]), (&b.id, theirs), &pairs));
         }
     }
-    let mut deterministic = Vec::new();
-    for system in &systems {
-        match &system.reseeded {
-            Some(again) => {
-                let var = variety(&rig, system, again)?;
-                out.push(metric(&system.id, "variety", "all", "all", &var, "mesh units", 7));
-            }
-            None => deterministic.push(system.id.clone()),
-        }
-    }
+    out.extend(varieties);
     let mg = motion_graph::read_graph(&args.mg_nodes, &args.mg_edges)?;
     mg.check_window(args.window, "--window")?;
     mg.check_frames(&labeled, &args.labeled_frames)?;

@@ -58,8 +58,10 @@ pub struct System {
     pub answers: Answers,
     /// Frames per request id.
     pub played: BTreeMap<i64, Played>,
-    /// The same requests answered under other seeds, where the system has seeds.
-    pub reseeded: Option<BTreeMap<i64, Played>>,
+    /// The curves of the same requests answered under other seeds, where the system has
+    /// seeds: read only by [`Self::reseeded`], for the variety measure, and dropped after
+    /// it (they are as large as the curves themselves).
+    pub reseeded: Option<std::path::PathBuf>,
 }
 
 impl System {
@@ -100,14 +102,7 @@ impl System {
                 r.request
             )));
         }
-        let read = |p: &Path| -> StageResult<BTreeMap<i64, Played>> {
-            let c = curves::read(p)?;
-            if c.controls != controls {
-                return Err(StageError::Input(format!("{} lists other controls than the labeled frames", p.display())));
-            }
-            Ok(by_request(&c))
-        };
-        let played = read(curves_path)?;
+        let played = read_played(curves_path, controls)?;
         for r in requests {
             let ans = a.get(r.request).expect("checked above");
             if let Some(l) = ans.latency {
@@ -123,9 +118,23 @@ impl System {
                 }
             }
         }
-        let reseeded = reseeded.map(read).transpose()?;
-        Ok(Self { id: id.into(), shown, answers: a, played, reseeded })
+        Ok(Self { id: id.into(), shown, answers: a, played, reseeded: reseeded.map(Path::to_path_buf) })
     }
+
+    /// The frames played under the other seeds, per request (`None`: the system has no
+    /// seeds), checked against `controls` as the curves are.
+    pub fn reseeded(&self, controls: &[String]) -> StageResult<Option<BTreeMap<i64, Played>>> {
+        self.reseeded.as_deref().map(|p| read_played(p, controls)).transpose()
+    }
+}
+
+/// A curves file's frames per request, after checking that it lists `controls`.
+fn read_played(p: &Path, controls: &[String]) -> StageResult<BTreeMap<i64, Played>> {
+    let c = curves::read(p)?;
+    if c.controls != controls {
+        return Err(StageError::Input(format!("{} lists other controls than the labeled frames", p.display())));
+    }
+    Ok(by_request(&c))
 }
 
 /// Frames per request: scripts are named `r<id>`; other scripts are ignored.

@@ -123,6 +123,17 @@ impl Reference {
     }
 }
 
+/// `v` (`N × dim`) cut into the rows of each run; `runs` tile `0..N` in order.
+fn split_runs<'a>(mut v: &'a mut [f32], runs: &[(usize, usize)], dim: usize) -> Vec<&'a mut [f32]> {
+    runs.iter()
+        .map(|&(s, e)| {
+            let (head, tail) = std::mem::take(&mut v).split_at_mut((e - s) * dim);
+            v = tail;
+            head
+        })
+        .collect()
+}
+
 impl Training {
     /// Measures the reference values. `maps` holds each label's PCA map (for the floor);
     /// `mesh_limit` bounds the values held for the two mesh reference sets.
@@ -153,13 +164,18 @@ impl Training {
             jerk: Vec<f64>,
             speed: Vec<f64>,
             mesh_steps: Vec<f64>,
-            raw: Reference,
-            floor: Reference,
+            raw_z: Vec<f64>,
+            floor_z: Vec<f64>,
         }
         let runs = labeled.segment_runs();
+        // The two mesh sets are written in place, run by run (the runs tile the rows in
+        // order): no per-run copies to concatenate, so they are held once.
+        let (mut raw_mesh, mut floor_mesh) = (vec![0f32; n * dim], vec![0f32; n * dim]);
+        let (raw_parts, floor_parts) = (split_runs(&mut raw_mesh, &runs, dim), split_runs(&mut floor_mesh, &runs, dim));
         let segments: Vec<StageResult<Segment>> = runs
             .par_iter()
-            .map(|&(s, e)| {
+            .zip(raw_parts.into_par_iter().zip(floor_parts))
+            .map(|(&(s, e), (raw_out, floor_out))| {
                 let rows: Vec<Vec<f64>> = (s..e).map(|r| labeled.frames.row(r).to_vec()).collect();
                 let map = map_of(&labeled.label[s])?;
                 let mut y = vec![0.0; map.d()];
@@ -172,40 +188,37 @@ impl Training {
                         out
                     })
                     .collect();
+                // One segment's f64 meshes at a time: the floor's are written and dropped
+                // before the raw ones are evaluated.
+                meshes(rig, &floor_rows)?.iter().zip(floor_out.iter_mut()).for_each(|(v, o)| *o = *v as f32);
                 let m = meshes(rig, &rows)?;
                 let (a, j) = peaks(&m, dim, fps);
                 let v = peak_speeds(&m, dim, fps);
                 let mesh_steps = (1..rows.len())
                     .map(|t| mesh_rmse(&m[t * dim..(t + 1) * dim], &m[(t - 1) * dim..t * dim]))
                     .collect();
-                let fm = meshes(rig, &floor_rows)?;
-                let f32s = |m: &[f64]| m.iter().map(|&v| v as f32).collect::<Vec<f32>>();
+                raw_out.iter_mut().zip(&m).for_each(|(o, v)| *o = *v as f32);
                 Ok(Segment {
                     acc: a[1..a.len().saturating_sub(1)].to_vec(),
                     jerk: j[1..j.len().saturating_sub(2).max(1)].to_vec(),
                     speed: v.get(1..).unwrap_or_default().to_vec(),
                     mesh_steps,
-                    raw: Reference { z: rows.iter().flat_map(|r| z(r)).collect(), mesh: f32s(&m), reduced: vec![] },
-                    floor: Reference {
-                        z: floor_rows.iter().flat_map(|r| z(r)).collect(),
-                        mesh: f32s(&fm),
-                        reduced: vec![],
-                    },
+                    raw_z: rows.iter().flat_map(|r| z(r)).collect(),
+                    floor_z: floor_rows.iter().flat_map(|r| z(r)).collect(),
                 })
             })
             .collect();
         let (mut acc, mut jerk, mut speed, mut mesh_steps) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        let (mut raw, mut floor) = (Reference::default(), Reference::default());
+        let mut raw = Reference { mesh: raw_mesh, ..Default::default() };
+        let mut floor = Reference { mesh: floor_mesh, ..Default::default() };
         for s in segments {
             let s = s?;
             acc.extend(s.acc);
             jerk.extend(s.jerk);
             speed.extend(s.speed);
             mesh_steps.extend(s.mesh_steps);
-            raw.z.extend(s.raw.z);
-            raw.mesh.extend(s.raw.mesh);
-            floor.z.extend(s.floor.z);
-            floor.mesh.extend(s.floor.mesh);
+            raw.z.extend(s.raw_z);
+            floor.z.extend(s.floor_z);
         }
         let c = weight.len();
         let params =
