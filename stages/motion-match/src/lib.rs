@@ -107,13 +107,14 @@ type Reply = (Answer, Vec<(String, Vec<f64>)>);
 impl Args {
     fn validate(&self) -> StageResult<()> {
         let positive = |v: f64| v.is_finite() && v > 0.0;
-        if self.features == 0
-            || !positive(self.search_interval)
-            || !(self.halflife.is_finite() && self.halflife >= 0.0)
-            || !(self.hold.is_finite() && self.hold >= 0.0)
-            || !positive(self.timeout)
-            || self.timeout > 3600.0
-        {
+        let non_negative = |v: f64| v.is_finite() && v >= 0.0;
+        let valid = self.features >= 1
+            && positive(self.search_interval)
+            && non_negative(self.halflife)
+            && non_negative(self.hold)
+            && positive(self.timeout)
+            && self.timeout <= 3600.0;
+        if !valid {
             return Err(StageError::Config(
                 "need --features >= 1, --search-interval > 0, --halflife >= 0, --hold >= 0, 0 < --timeout <= 3600"
                     .into(),
