@@ -86,6 +86,15 @@ impl PcaParams {
     }
 }
 
+/// The sign convention of a principal direction: its largest entry (by magnitude) is
+/// positive.
+fn largest_positive(v: &mut [f64]) {
+    let big = (0..v.len()).max_by(|&a, &b| v[a].abs().total_cmp(&v[b].abs())).unwrap_or(0);
+    if v.get(big).is_some_and(|x| *x < 0.0) {
+        v.iter_mut().for_each(|x| *x = -*x);
+    }
+}
+
 impl Pca {
     /// Fits PCA to `z` (row-major, `cols` columns).
     pub fn fit(z: &[f64], cols: usize, params: &PcaParams) -> Result<Self, PcaError> {
@@ -107,9 +116,9 @@ impl Pca {
         let mut directions = Vec::with_capacity(r * cols);
         for i in 0..r {
             let col = v.col(i);
-            let big = (0..cols).max_by(|&a, &b| col[a].abs().total_cmp(&col[b].abs())).unwrap_or(0);
-            let sign = if col[big] < 0.0 { -1.0 } else { 1.0 };
-            directions.extend((0..cols).map(|j| sign * col[j]));
+            let mut dir: Vec<f64> = (0..cols).map(|j| col[j]).collect();
+            largest_positive(&mut dir);
+            directions.extend(dir);
         }
         let singular_values: Vec<f64> = (0..r).map(|i| s[i]).collect();
         let mut pca = Self { mean, directions, singular_values, total, kept: 0, cols };
@@ -157,10 +166,7 @@ impl Pca {
                 let w = u[(j, i)] / s;
                 v.iter_mut().zip(row).for_each(|(v, r)| *v += w * r);
             }
-            let big = (0..cols).max_by(|&a, &b| v[a].abs().total_cmp(&v[b].abs())).unwrap_or(0);
-            if v[big] < 0.0 {
-                v.iter_mut().for_each(|x| *x = -*x);
-            }
+            largest_positive(&mut v);
             directions.extend(v);
         }
         Ok(Self { mean, directions, singular_values, total, kept, cols })

@@ -202,7 +202,7 @@ mod tests {
             shown: id.into(),
             answers: Answers { system: id.into(), by_request },
             played: Default::default(),
-            reseeded: None,
+            reseeded_curves: None,
         }
     }
 

@@ -469,7 +469,7 @@ mod tests {
             shown: id.into(),
             answers: Answers { system: id.into(), by_request },
             played: BTreeMap::new(),
-            reseeded: None,
+            reseeded_curves: None,
         }
     }
 

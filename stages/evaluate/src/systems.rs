@@ -61,7 +61,7 @@ pub struct System {
     /// The curves of the same requests answered under other seeds, where the system has
     /// seeds: read only by [`Self::reseeded`], for the variety measure, and dropped after
     /// it (they are as large as the curves themselves).
-    pub reseeded: Option<std::path::PathBuf>,
+    pub reseeded_curves: Option<std::path::PathBuf>,
 }
 
 impl System {
@@ -118,13 +118,13 @@ impl System {
                 }
             }
         }
-        Ok(Self { id: id.into(), shown, answers: a, played, reseeded: reseeded.map(Path::to_path_buf) })
+        Ok(Self { id: id.into(), shown, answers: a, played, reseeded_curves: reseeded.map(Path::to_path_buf) })
     }
 
     /// The frames played under the other seeds, per request (`None`: the system has no
     /// seeds), checked against `controls` as the curves are.
     pub fn reseeded(&self, controls: &[String]) -> StageResult<Option<BTreeMap<i64, Played>>> {
-        self.reseeded.as_deref().map(|p| read_played(p, controls)).transpose()
+        self.reseeded_curves.as_deref().map(|p| read_played(p, controls)).transpose()
     }
 }
 

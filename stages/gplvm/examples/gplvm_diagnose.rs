@@ -58,7 +58,7 @@ fn main() {
     let start = std::time::Instant::now();
     let result = fit_observed(data.fit_data(), &config, |e| {
         count += 1;
-        if !count.is_multiple_of(every) || !e.info.value.is_finite() || e.params.len() != layout.len() {
+        if !count.is_multiple_of(every) || !e.info.value.is_finite() {
             return;
         }
         let h = layout.hyper(e.params);

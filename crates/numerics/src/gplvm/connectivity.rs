@@ -744,43 +744,6 @@ fn lower_times(dst: &mut Mat<f64>, a: &Mat<f64>, b: faer::MatRef<'_, f64>, par: 
 #[cfg(test)]
 mod tests {
 
-    /// The one-logarithm sum equals the sum of logarithms on heat-kernel-like values
-    /// (1e-16 to 1, multiplicities 1 to 32) to 1e-12 relative, and a zero, a NaN or a
-    /// fractional multiplicity makes it NaN.
-    #[test]
-    fn log_product_equals_the_sum_of_logs() {
-        let mut acc = LogProduct::default();
-        let mut reference = 0.0;
-        for i in 0..20_000 {
-            let x = (-(((i * 7919) % 3700) as f64) / 100.0).exp().max(1e-16);
-            let m = (1 + i % 32) as f64;
-            acc.push(x, m);
-            reference += m * x.ln();
-        }
-        assert!((acc.ln() - reference).abs() <= 1e-12 * reference.abs(), "{} vs {reference}", acc.ln());
-        for (x, m) in [(0.0, 1.0), (f64::NAN, 1.0), (0.5, 1.5)] {
-            let mut bad = LogProduct::default();
-            bad.push(x, m);
-            assert!(bad.ln().is_nan(), "{x} {m}");
-        }
-    }
-
-    /// The divided difference agrees with β e_b φ1(β(λa − λb)) on both sides of the switch
-    /// (far, near and equal eigenvalues) to 1e-12 relative, and is symmetric.
-    #[test]
-    fn divided_difference_matches_phi1_everywhere() {
-        let beta = 1.7f64;
-        for (la, lb) in
-            [(-1.9f64, -0.1f64), (-0.5, -0.5 + 6e-4), (-0.5, -0.5 + 5e-4), (-0.3, -0.3), (-1.0, -1.0 + 1e-9)]
-        {
-            let (ea, eb) = ((beta * la).exp(), (beta * lb).exp());
-            let reference = beta * eb * phi1(beta * (la - lb));
-            let got = divided_difference(beta, la, lb, ea, eb);
-            assert!((got - reference).abs() <= 1e-12 * reference.abs(), "{la} {lb}: {got} vs {reference}");
-            let swapped = divided_difference(beta, lb, la, eb, ea);
-            assert!((got - swapped).abs() <= 1e-12 * reference.abs(), "{la} {lb}: not symmetric");
-        }
-    }
     use super::*;
     use crate::gplvm::testutil::{central_diff, max_rel_err, random_problem};
 
@@ -1046,5 +1009,43 @@ mod tests {
         assert!(matches!(ConnectivityPrior::new(5, 2, bad), Err(GplvmError::Params(_))));
         let mut p = ConnectivityPrior::new(3, 1, ConnectivityParams::default()).unwrap();
         assert!(matches!(p.value(&[1.0, 1.0, 1.0]), Err(GplvmError::Params(_))));
+    }
+
+    /// The one-logarithm sum equals the sum of logarithms on heat-kernel-like values
+    /// (1e-16 to 1, multiplicities 1 to 32) to 1e-12 relative, and a zero, a NaN or a
+    /// fractional multiplicity makes it NaN.
+    #[test]
+    fn log_product_equals_the_sum_of_logs() {
+        let mut acc = LogProduct::default();
+        let mut reference = 0.0;
+        for i in 0..20_000 {
+            let x = (-(((i * 7919) % 3700) as f64) / 100.0).exp().max(1e-16);
+            let m = (1 + i % 32) as f64;
+            acc.push(x, m);
+            reference += m * x.ln();
+        }
+        assert!((acc.ln() - reference).abs() <= 1e-12 * reference.abs(), "{} vs {reference}", acc.ln());
+        for (x, m) in [(0.0, 1.0), (f64::NAN, 1.0), (0.5, 1.5)] {
+            let mut bad = LogProduct::default();
+            bad.push(x, m);
+            assert!(bad.ln().is_nan(), "{x} {m}");
+        }
+    }
+
+    /// The divided difference agrees with β e_b φ1(β(λa − λb)) on both sides of the switch
+    /// (far, near and equal eigenvalues) to 1e-12 relative, and is symmetric.
+    #[test]
+    fn divided_difference_matches_phi1_everywhere() {
+        let beta = 1.7f64;
+        for (la, lb) in
+            [(-1.9f64, -0.1f64), (-0.5, -0.5 + 6e-4), (-0.5, -0.5 + 5e-4), (-0.3, -0.3), (-1.0, -1.0 + 1e-9)]
+        {
+            let (ea, eb) = ((beta * la).exp(), (beta * lb).exp());
+            let reference = beta * eb * phi1(beta * (la - lb));
+            let got = divided_difference(beta, la, lb, ea, eb);
+            assert!((got - reference).abs() <= 1e-12 * reference.abs(), "{la} {lb}: {got} vs {reference}");
+            let swapped = divided_difference(beta, lb, la, eb, ea);
+            assert!((got - swapped).abs() <= 1e-12 * reference.abs(), "{la} {lb}: not symmetric");
+        }
     }
 }
