@@ -743,7 +743,6 @@ fn lower_times(dst: &mut Mat<f64>, a: &Mat<f64>, b: faer::MatRef<'_, f64>, par: 
 
 #[cfg(test)]
 mod tests {
-
     use super::*;
     use crate::gplvm::testutil::{central_diff, max_rel_err, random_problem};
 
