@@ -171,20 +171,16 @@ fn unit(
     to: Option<&str>,
     inputs: &BTreeMap<String, FileRecord>,
 ) -> Unit {
-    let name = to.map_or_else(|| label.to_string(), |to| format!("{label} → {to}"));
+    let name = unit_name(label, to);
     let mut dir = format!("{}/partitions/{}/{}", pipeline.artifacts.rel, file_name(&stage.name), file_name(label));
     if let Some(to) = to {
         dir = format!("{dir}/{}", file_name(to));
     }
     let mut part = stage.clone();
     part.name = format!("{}[{name}]", stage.name);
-    part.outputs = stage
-        .outputs
-        .iter()
-        .map(|(role, path)| {
-            let file = Path::new(&path.rel).file_name().map_or_else(|| role.clone(), |f| f.to_string_lossy().into());
-            (role.clone(), ArtifactPath::new(&pipeline.dir, &format!("{dir}/{file}")))
-        })
+    part.outputs = partition_files(&stage.outputs)
+        .into_iter()
+        .map(|(role, file)| (role, ArtifactPath::new(&pipeline.dir, &format!("{dir}/{file}"))))
         .collect();
     part.params
         .push((reprise_stagekit::wiring::PARTITION_FLAG.into(), ParamValue::Scalar(Scalar::Str(label.to_string()))));
@@ -210,6 +206,36 @@ fn unit(
     let outputs = part.outputs.iter().map(|(name, path)| (name.as_str(), path.rel.as_str()));
     let key = cache_key(&part.name, &bin.record().identity(), &part.params, &digests, outputs);
     Unit { name, label: label.to_string(), to: to.map(str::to_string), stage: part, key }
+}
+
+/// A partition's name in the lock and the log: the label, or `from → to` for a pair. A
+/// label that itself contains the arrow is quoted, so that no two pairs share a name.
+fn unit_name(label: &str, to: Option<&str>) -> String {
+    let Some(to) = to else { return label.to_string() };
+    if label.contains('→') || to.contains('→') {
+        format!("{label:?} → {to:?}")
+    } else {
+        format!("{label} → {to}")
+    }
+}
+
+/// The file name of each output (by role) inside a partition's directory: the stage
+/// output's own file name, or, if two outputs share one (`a/x.parquet` and
+/// `b/x.parquet`), `role.name` for every output, so that no partition output overwrites
+/// another (roles are distinct).
+fn partition_files<'a>(outputs: impl IntoIterator<Item = &'a (String, ArtifactPath)>) -> Vec<(String, String)> {
+    let named: Vec<(String, String)> = outputs
+        .into_iter()
+        .map(|(role, path)| {
+            let file = Path::new(&path.rel).file_name().map_or_else(|| role.clone(), |f| f.to_string_lossy().into());
+            (role.clone(), file)
+        })
+        .collect();
+    let distinct: std::collections::BTreeSet<&str> = named.iter().map(|(_, f)| f.as_str()).collect();
+    if distinct.len() == named.len() {
+        return named;
+    }
+    named.into_iter().map(|(role, file)| (role.clone(), format!("{role}.{file}"))).collect()
 }
 
 /// Whether a label's recorded run has this key and its outputs are still as written.
@@ -331,6 +357,33 @@ fn list<'a>(labels: impl Iterator<Item = &'a str>) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Pair names are unambiguous even for labels containing the arrow.
+    #[test]
+    fn pair_names_are_distinct() {
+        assert_eq!(unit_name("a", None), "a");
+        assert_eq!(unit_name("a", Some("b")), "a → b");
+        let (one, two) = (unit_name("a → b", Some("c")), unit_name("a", Some("b → c")));
+        assert_ne!(one, two);
+        assert_eq!(one, "\"a → b\" → \"c\"");
+    }
+
+    /// Outputs keep their file names unless two share one; then every one is prefixed by
+    /// its role and all are distinct.
+    #[test]
+    fn partition_files_never_collide() {
+        let out = |role: &str, rel: &str| (role.to_string(), ArtifactPath::new(Path::new("/p"), rel));
+        let plain = [out("latents", "artifacts/latents.parquet"), out("models", "artifacts/models.parquet")];
+        let files: Vec<String> = partition_files(&plain).into_iter().map(|(_, f)| f).collect();
+        assert_eq!(files, ["latents.parquet", "models.parquet"]);
+        let clash = [out("latents", "a/x.parquet"), out("models", "b/x.parquet"), out("trace", "c/t.parquet")];
+        let files: Vec<(String, String)> = partition_files(&clash);
+        assert_eq!(
+            files.iter().map(|(_, f)| f.as_str()).collect::<Vec<_>>(),
+            ["latents.x.parquet", "models.x.parquet", "trace.t.parquet"]
+        );
+        assert_eq!(files[1].0, "models");
+    }
 
     /// Labels are listed, at most eight by name.
     #[test]
