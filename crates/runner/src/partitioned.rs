@@ -223,9 +223,9 @@ fn unit_name(label: &str, to: Option<&str>) -> String {
 /// output's own file name, or, if two outputs share one (`a/x.parquet` and
 /// `b/x.parquet`), `role.name` for every output, so that no partition output overwrites
 /// another (roles are distinct).
-fn partition_files<'a>(outputs: impl IntoIterator<Item = &'a (String, ArtifactPath)>) -> Vec<(String, String)> {
+fn partition_files(outputs: &[(String, ArtifactPath)]) -> Vec<(String, String)> {
     let named: Vec<(String, String)> = outputs
-        .into_iter()
+        .iter()
         .map(|(role, path)| {
             let file = Path::new(&path.rel).file_name().map_or_else(|| role.clone(), |f| f.to_string_lossy().into());
             (role.clone(), file)
@@ -235,7 +235,13 @@ fn partition_files<'a>(outputs: impl IntoIterator<Item = &'a (String, ArtifactPa
     if distinct.len() == named.len() {
         return named;
     }
-    named.into_iter().map(|(role, file)| (role.clone(), format!("{role}.{file}"))).collect()
+    named
+        .into_iter()
+        .map(|(role, file)| {
+            let prefixed = format!("{role}.{file}");
+            (role, prefixed)
+        })
+        .collect()
 }
 
 /// Whether a label's recorded run has this key and its outputs are still as written.
