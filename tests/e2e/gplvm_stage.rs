@@ -125,7 +125,18 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     let systems = metrics.strings("system").unwrap();
     assert!(systems.iter().any(|s| s == "reprise") && systems.iter().any(|s| s == "baseline"));
     let names = metrics.strings("metric").unwrap();
-    for m in ["plausibility_floor_mesh_reach", "plausibility_raw_scaled_blend", "variety", "coverage", "success"] {
+    // Every system is measured on every headline metric, perceived latency included.
+    for m in [
+        "plausibility_floor_mesh_reach",
+        "plausibility_raw_scaled_blend",
+        "variety",
+        "coverage",
+        "success",
+        "arrived",
+        "perceived_latency_s",
+        "discontinuity_accel",
+        "liveliness_ks",
+    ] {
         for s in ["reprise", "baseline", "motion-matching", "crossfade"] {
             if m == "variety" && ["motion-matching", "crossfade"].contains(&s) {
                 continue; // deterministic: shown as 0 by construction, not measured
@@ -138,8 +149,11 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     {
         assert!(systems.iter().any(|s| s == pair), "no paired rows for {pair}");
     }
+    assert!(systems.iter().any(|s| s == "requests") && names.iter().any(|m| m == "start_on_bridge"));
     let md = p.read("reports/dragon-face/report.md");
     assert!(md.contains("**Motion Graphs** is best on") && md.contains("## Definitions"), "{md}");
+    assert!(!md.contains("by construction") && md.contains("- `perceived_latency_s`: "), "{md}");
+    assert!(md.contains("of the requests start on a bridge point"), "{md}");
     assert!(md.contains("## Plausibility by phase") && md.contains("| floor | mesh | settle |"), "{md}");
     assert!(md.contains("**Motion matching** is best on") && md.contains("**Crossfade** is best on"), "{md}");
     let html = p.read("reports/dragon-face/index.html");

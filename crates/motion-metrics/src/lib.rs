@@ -9,6 +9,12 @@
 //!   (the median distance between consecutive frames).
 //! - **Variety** of two runs of one script: the mean over frames of the distance between
 //!   their poses ([`mean_distance`]).
+//! - **RMS vertex speed** of frame $t$: $\sqrt{\tfrac1V\sum_v\lVert x_v(t) - x_v(t-1)\rVert^2}\,f$
+//!   (mesh units/s; [`rms_speeds`]) — how much the whole character moves, where the peak
+//!   speed finds the one vertex that jumps.
+//! - **Kolmogorov–Smirnov distance** of two samples: $\sup_x\lvert F_a(x) - F_b(x)\rvert$ of
+//!   their empirical distribution functions ([`ks_distance`]); 0 for the same distribution,
+//!   1 for disjoint ones.
 //! - Confidence intervals: percentile bootstrap of the mean ([`bootstrap_mean_ci`]).
 
 use rand::{Rng, SeedableRng};
@@ -60,6 +66,45 @@ pub fn peak_speeds(x: &[f64], dim: usize, fps: f64) -> Vec<f64> {
                 * fps
         })
         .collect()
+}
+
+/// Per frame, the RMS vertex speed (see the crate docs; mesh units/s); 0 at the first frame.
+pub fn rms_speeds(x: &[f64], dim: usize, fps: f64) -> Vec<f64> {
+    let n = x.len() / dim.max(1);
+    let vertices = (dim / 3).max(1) as f64;
+    (0..n)
+        .map(|t| {
+            if t == 0 {
+                return 0.0;
+            }
+            let (a, b) = (&x[(t - 1) * dim..t * dim], &x[t * dim..(t + 1) * dim]);
+            (a.iter().zip(b).map(|(p, q)| (q - p) * (q - p)).sum::<f64>() / vertices).sqrt() * fps
+        })
+        .collect()
+}
+
+/// The two-sample Kolmogorov–Smirnov distance $\sup_x\lvert F_a(x) - F_b(x)\rvert$ between
+/// the samples `a` and `sorted_b` (ascending, finite); NaN if either is empty.
+pub fn ks_distance(a: &[f64], sorted_b: &[f64]) -> f64 {
+    let mut a: Vec<f64> = a.iter().copied().filter(|v| v.is_finite()).collect();
+    if a.is_empty() || sorted_b.is_empty() {
+        return f64::NAN;
+    }
+    a.sort_by(f64::total_cmp);
+    let (na, nb) = (a.len() as f64, sorted_b.len() as f64);
+    let (mut i, mut j, mut d) = (0usize, 0usize, 0f64);
+    // Walk both in order; at each distinct value, step past every copy in both samples.
+    while i < a.len() && j < sorted_b.len() {
+        let x = a[i].min(sorted_b[j]);
+        while i < a.len() && a[i] <= x {
+            i += 1;
+        }
+        while j < sorted_b.len() && sorted_b[j] <= x {
+            j += 1;
+        }
+        d = d.max((i as f64 / na - j as f64 / nb).abs());
+    }
+    d
 }
 
 /// The `q`-quantile (0–1) of `values` by linear interpolation between order statistics;
@@ -181,6 +226,24 @@ mod tests {
         let lin: Vec<f64> = (0..10).flat_map(|t| [t as f64 * 0.5, 1.0, -(t as f64)]).collect();
         let (a, j) = peaks(&lin, 3, fps);
         assert!(a.iter().chain(&j).all(|v| v.abs() < 1e-9));
+    }
+
+    /// RMS speed: one of two vertices moving 1 per frame is sqrt(1/2) × fps; KS distances
+    /// of known samples: equal 0, disjoint 1, shifted halves 0.5, ties handled.
+    #[test]
+    fn rms_speed_and_ks_have_known_values() {
+        let x = [0.0, 0.0, 0.0, 5.0, 5.0, 5.0, 1.0, 0.0, 0.0, 5.0, 5.0, 5.0];
+        let v = rms_speeds(&x, 6, 24.0);
+        assert_eq!(v[0], 0.0);
+        assert!((v[1] - 0.5f64.sqrt() * 24.0).abs() < 1e-12);
+        let b: Vec<f64> = (0..10).map(f64::from).collect();
+        assert_eq!(ks_distance(&b, &b), 0.0);
+        assert_eq!(ks_distance(&[100.0, 200.0], &b), 1.0);
+        assert_eq!(ks_distance(&[-1.0, -2.0], &b), 1.0);
+        let shifted: Vec<f64> = (5..15).map(f64::from).collect();
+        assert!((ks_distance(&shifted, &b) - 0.5).abs() < 1e-12);
+        assert_eq!(ks_distance(&[1.0, 1.0, 1.0], &[1.0, 1.0]), 0.0);
+        assert!(ks_distance(&[], &b).is_nan());
     }
 
     /// Identical runs have zero variety; a copied training frame has zero plausibility

@@ -1,36 +1,18 @@
-//! Aggregating measurements into metric rows: means with bootstrap CIs per label pair and
-//! overall, shares (answered, success, coverage) from every request, and paired
-//! differences between systems on the requests both answered.
+//! Aggregating measurements into metric rows, by request: every per-request measure is one
+//! value per request (a request's frames are averaged first), means are request-weighted
+//! and CIs resample requests; shares (answered, arrived, coverage, success) count every
+//! request; paired differences compare two systems on the requests both answered.
+
+use std::collections::HashSet;
 
 use reprise_artifact::transitions::Request;
+use reprise_benchmark::metrics::{self, FRAME_STEPS, MESH_STEPS};
 use reprise_motion_metrics::bootstrap_mean_ci;
 
 use crate::measure::{Measured, Phase, PlausibilityReference as Reference, Space};
 use crate::systems::System;
 
-/// One metric row.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Metric {
-    /// A system id (`reprise`, `baseline`, …), a pair `<a> vs <b>` for paired
-    /// differences, or a model variant (`gplvm`, `pca`, `scaled`, `unscaled`).
-    pub system: String,
-    /// Metric name.
-    pub metric: String,
-    /// Label A (or the label; `all` over pairs).
-    pub from: String,
-    /// Label B (`all` over pairs; empty for per-label metrics).
-    pub to: String,
-    /// Mean value.
-    pub value: f64,
-    /// 95 % CI low.
-    pub ci_low: Option<f64>,
-    /// 95 % CI high.
-    pub ci_high: Option<f64>,
-    /// Observations.
-    pub n: i64,
-    /// Unit.
-    pub unit: String,
-}
+pub use reprise_benchmark::Metric;
 
 /// Bootstrap resamples of every CI.
 pub const RESAMPLES: usize = 1000;
@@ -80,90 +62,172 @@ fn in_group(from: &str, to: &str, (gf, gt): &(String, String)) -> bool {
 /// Unit of the plausibility metrics in `space`.
 pub fn plausibility_unit(space: Space) -> &'static str {
     match space {
-        Space::Scaled => "× median frame step",
-        Space::Mesh => "× median mesh motion per frame",
+        Space::Scaled => FRAME_STEPS,
+        Space::Mesh => MESH_STEPS,
     }
 }
 
-/// A measure of one answered request with its name and unit, aggregated as a mean.
-type PerRequest = (String, Box<dyn Fn(&Measured) -> Vec<f64> + Sync>, &'static str);
+/// The liveliness metric of `measure` (`ratio` or `ks`) over `phase` (`None`: every frame
+/// after the request).
+pub fn liveliness_name(measure: &str, phase: Option<Phase>) -> String {
+    match phase {
+        None => format!("liveliness_{measure}"),
+        Some(p) => format!("liveliness_{measure}_{}", p.name()),
+    }
+}
 
-/// The per-request measures aggregated for every system.
-fn per_request() -> Vec<PerRequest> {
-    let mut m: Vec<PerRequest> = vec![
-        ("latency_s".into(), Box::new(|p: &Measured| vec![p.latency]), "s"),
-        ("peak_accel_ratio".into(), Box::new(|p: &Measured| vec![p.accel]), "× training p95"),
-        ("peak_jerk_ratio".into(), Box::new(|p: &Measured| vec![p.jerk]), "× training p95"),
-    ];
+/// Every per-request measure, by metric id, with its unit.
+pub fn per_request() -> Vec<(String, &'static str)> {
+    let unit = |id: &str| metrics::find(id).map_or("", |m| m.unit);
+    let mut v: Vec<(String, &'static str)> = [
+        "perceived_latency_s",
+        "switch_latency_s",
+        "latency_direct_s",
+        "latency_routed_s",
+        "routed",
+        "discontinuity_accel",
+        "discontinuity_jerk",
+    ]
+    .into_iter()
+    .map(|id| (id.to_string(), unit(id)))
+    .collect();
+    for m in ["ratio", "ks"] {
+        for phase in std::iter::once(None).chain(Phase::AFTER.into_iter().map(Some)) {
+            let id = liveliness_name(m, phase);
+            let u = if m == "ks" { unit("liveliness_ks") } else { unit("liveliness_ratio") };
+            v.push((id, u));
+        }
+    }
     for r in Reference::ALL {
         for s in Space::ALL {
-            let phases = std::iter::once(None).chain(Phase::ALL.into_iter().map(Some));
-            for phase in phases {
-                let name = crate::measure::plausibility::metric_name(r, s, phase);
-                m.push((name, Box::new(move |p: &Measured| p.plausibility.values(r, s, phase)), plausibility_unit(s)));
+            for phase in std::iter::once(None).chain(Phase::AFTER.into_iter().map(Some)) {
+                v.push((crate::measure::plausibility::metric_name(r, s, phase), plausibility_unit(s)));
             }
         }
     }
-    m
+    v
 }
 
-/// One system's rows: the per-request measures of its answered requests, and from every
-/// request `answered`, `success` (answered with no pose jump above `jump_ratio` × the
-/// training p99 of peak vertex speed) and simulated `coverage` (answered, reaching B within
-/// `horizon` frames).
-pub fn system_rows(
-    system: &System,
-    measured: &[Measured],
-    reqs: &[Request],
-    pairs: &[(String, String)],
-    jump_ratio: f64,
-    horizon: i64,
-) -> Vec<Metric> {
+/// One answered request's value of per-request measure `id` (`None`: the measure does not
+/// apply to it — a latency of an answer that never arrived, a phase it does not have).
+pub fn value(p: &Measured, id: &str) -> Option<f64> {
+    let finite = |v: f64| Some(v).filter(|v| v.is_finite());
+    let phase_of = |rest: &str| -> Option<Option<Phase>> {
+        if rest.is_empty() {
+            return Some(None);
+        }
+        Phase::AFTER.into_iter().find(|p| rest == format!("_{}", p.name())).map(Some)
+    };
+    match id {
+        "perceived_latency_s" => p.perceived_latency,
+        "switch_latency_s" => Some(p.switch_latency),
+        "latency_direct_s" => p.perceived_latency.filter(|_| !p.routed),
+        "latency_routed_s" => p.perceived_latency.filter(|_| p.routed),
+        "routed" => Some(f64::from(u8::from(p.routed))),
+        "discontinuity_accel" => finite(p.discontinuity.accel),
+        "discontinuity_jerk" => finite(p.discontinuity.jerk),
+        _ => {
+            for (m, pick) in [("ratio", 0usize), ("ks", 1)] {
+                if let Some(rest) = id.strip_prefix(&format!("liveliness_{m}")) {
+                    let pair = match phase_of(rest)? {
+                        None => p.liveliness.all,
+                        Some(ph) => p.liveliness.phases[Phase::AFTER.iter().position(|q| *q == ph)?],
+                    };
+                    return finite(if pick == 0 { pair.0 } else { pair.1 });
+                }
+            }
+            for r in Reference::ALL {
+                for s in Space::ALL {
+                    if let Some(rest) = id.strip_prefix(&crate::measure::plausibility::metric_name(r, s, None)) {
+                        if let Some(phase) = phase_of(rest) {
+                            return finite(p.plausibility.phase_mean(r, s, phase));
+                        }
+                    }
+                }
+            }
+            None
+        }
+    }
+}
+
+/// Whether a request meets a share's condition.
+type Condition<'a> = dyn Fn(&Request) -> bool + 'a;
+
+/// What `system_rows` needs besides the system and its measurements.
+#[derive(Debug, Clone, Copy)]
+pub struct Rules<'a> {
+    /// The requests (every system is asked all of them).
+    pub requests: &'a [Request],
+    /// The ordered label pairs.
+    pub pairs: &'a [(String, String)],
+    /// Success: no peak vertex speed above this × the training p99.
+    pub jump_ratio: f64,
+    /// Coverage horizon (s).
+    pub horizon: f64,
+}
+
+/// One system's rows: each per-request measure over its answered requests (one value per
+/// request), and over every request the shares `answered` (the system's own label
+/// switch), `arrived` (a viewer sees B), `coverage` (arrived within the horizon) and
+/// `success` (answered with no pose jump).
+pub fn system_rows(system: &System, measured: &[Measured], rules: Rules<'_>) -> Vec<Metric> {
     let mut out = Vec::new();
     let measures = per_request();
-    let jumps: std::collections::HashMap<i64, f64> = measured.iter().map(|p| (p.request, p.jump)).collect();
+    let by_id: std::collections::HashMap<i64, &Measured> = measured.iter().map(|p| (p.request, p)).collect();
     let share = |f: &dyn Fn(&Request) -> bool, g: &(String, String)| -> Vec<f64> {
-        reqs.iter().filter(|r| in_group(&r.from, &r.to, g)).map(|r| f64::from(u8::from(f(r)))).collect()
+        rules.requests.iter().filter(|r| in_group(&r.from, &r.to, g)).map(|r| f64::from(u8::from(f(r)))).collect()
     };
-    for (gi, g) in groups(pairs).iter().enumerate() {
+    let arrived_in = |r: &Request| by_id.get(&r.request).and_then(|p| p.perceived_latency);
+    for (gi, g) in groups(rules.pairs).iter().enumerate() {
         let seed = gi as u64;
         let here: Vec<&Measured> = measured.iter().filter(|p| in_group(&p.from, &p.to, g)).collect();
-        for (name, f, unit) in &measures {
-            let v: Vec<f64> = here.iter().flat_map(|p| f(p)).collect();
+        for (name, unit) in &measures {
+            let v: Vec<f64> = here.iter().filter_map(|p| value(p, name)).collect();
             out.push(metric(&system.id, name, &g.0, &g.1, &v, unit, seed));
         }
-        out.push(metric(&system.id, "answered", &g.0, &g.1, &share(&|r| system.answered(r), g), "share", seed));
-        let success = |r: &Request| jumps.get(&r.request).is_some_and(|&j| j <= jump_ratio);
-        out.push(metric(&system.id, "success", &g.0, &g.1, &share(&success, g), "share", seed));
-        let reached = |r: &Request| system.answer(r).and_then(|a| a.latency).is_some_and(|l| l <= horizon);
-        out.push(metric(&system.id, "coverage", &g.0, &g.1, &share(&reached, g), "share", 11));
+        let shares: [(&str, &Condition<'_>); 4] = [
+            ("answered", &|r| system.answered(r)),
+            ("arrived", &|r| arrived_in(r).is_some()),
+            ("coverage", &|r| arrived_in(r).is_some_and(|l| l <= rules.horizon + 1e-9)),
+            ("success", &|r| by_id.get(&r.request).is_some_and(|p| p.jump <= rules.jump_ratio)),
+        ];
+        for (name, f) in shares {
+            out.push(metric(&system.id, name, &g.0, &g.1, &share(f, g), "share", seed));
+        }
     }
     out
 }
 
-/// The measures compared pairwise, with their units.
-pub const PAIRED: [(&str, &str); 5] = [
-    ("latency_s", "s"),
-    ("peak_accel_ratio", "× training p95"),
-    ("peak_jerk_ratio", "× training p95"),
-    ("plausibility_raw_scaled", "× median frame step"),
-    ("plausibility_floor_scaled", "× median frame step"),
-];
-
-fn paired_value(m: &Measured, name: &str) -> f64 {
-    match name {
-        "latency_s" => m.latency,
-        "peak_accel_ratio" => m.accel,
-        "peak_jerk_ratio" => m.jerk,
-        "plausibility_raw_scaled" => m.plausibility.mean(Reference::Raw, Space::Scaled),
-        _ => m.plausibility.mean(Reference::Floor, Space::Scaled),
-    }
+/// The share of requests whose start frame is a bridge point ([`System`]-independent):
+/// `on_bridge` holds those requests' ids.
+pub fn start_rows(requests: &[Request], pairs: &[(String, String)], on_bridge: &HashSet<i64>) -> Vec<Metric> {
+    groups(pairs)
+        .iter()
+        .enumerate()
+        .map(|(gi, g)| {
+            let v: Vec<f64> = requests
+                .iter()
+                .filter(|r| in_group(&r.from, &r.to, g))
+                .map(|r| f64::from(u8::from(on_bridge.contains(&r.request))))
+                .collect();
+            metric("requests", "start_on_bridge", &g.0, &g.1, &v, "share", gi as u64)
+        })
+        .collect()
 }
 
-/// Paired comparisons of system `a` with `b` on the requests both answered: per request,
-/// a's value minus b's for each of [`PAIRED`]; the mean difference with its bootstrap CI,
-/// per ordered pair and overall, as system `<a> vs <b>` and metric `paired_<measure>`
-/// (below 0, `a` is lower).
+/// The measures compared pairwise.
+pub const PAIRED: [&str; 5] = [
+    "perceived_latency_s",
+    "discontinuity_accel",
+    "liveliness_ks",
+    "plausibility_floor_mesh",
+    "plausibility_floor_scaled",
+];
+
+/// Paired comparisons of system `a` with `b` on the requests both answered (and both
+/// arrived, for a latency): per request, a's value minus b's for each of [`PAIRED`]; the
+/// mean difference with its bootstrap CI, per ordered pair and overall, as system
+/// `<a> vs <b>` and metric `paired_<measure>` (below 0, `a` is lower).
 pub fn paired(a: (&str, &[Measured]), b: (&str, &[Measured]), pairs: &[(String, String)]) -> Vec<Metric> {
     let by_id: std::collections::HashMap<i64, &Measured> = b.1.iter().map(|m| (m.request, m)).collect();
     let both: Vec<(&Measured, &Measured)> = a.1.iter().filter_map(|x| by_id.get(&x.request).map(|y| (x, *y))).collect();
@@ -171,12 +235,9 @@ pub fn paired(a: (&str, &[Measured]), b: (&str, &[Measured]), pairs: &[(String, 
     let mut out = Vec::new();
     for (gi, g) in groups(pairs).iter().enumerate() {
         let here: Vec<&(&Measured, &Measured)> = both.iter().filter(|(x, _)| in_group(&x.from, &x.to, g)).collect();
-        for (name, unit) in PAIRED {
-            let d: Vec<f64> = here
-                .iter()
-                .map(|(x, y)| paired_value(x, name) - paired_value(y, name))
-                .filter(|d| d.is_finite())
-                .collect();
+        for name in PAIRED {
+            let d: Vec<f64> = here.iter().filter_map(|(x, y)| Some(value(x, name)? - value(y, name)?)).collect();
+            let unit = metrics::find(name).map_or("", |m| m.unit);
             out.push(metric(&system, &format!("paired_{name}"), &g.0, &g.1, &d, unit, 100 + gi as u64));
         }
     }
@@ -206,66 +267,117 @@ mod tests {
         }
     }
 
-    pub(crate) fn value(m: &[Metric], system: &str, name: &str, from: &str, to: &str) -> f64 {
+    fn measured(request: i64, to: &str, perceived: Option<f64>, accel: f64) -> Measured {
+        Measured {
+            request,
+            from: if to == "b" { "a".into() } else { "b".into() },
+            to: to.into(),
+            jump: 0.0,
+            discontinuity: crate::measure::motion::Discontinuity { accel, jerk: accel },
+            switch_latency: perceived.unwrap_or(1.0) / 2.0,
+            perceived_latency: perceived,
+            routed: false,
+            liveliness: Default::default(),
+            plausibility: Default::default(),
+            speed: vec![],
+        }
+    }
+
+    /// Coverage is the share of a pair's requests that arrive (as a viewer sees it) within
+    /// the horizon: a → b, the first system arrives in time on 3 of 4 (one too late, at
+    /// 1.25 s > 1 s), the second on 2 (two unanswered); b → a the second wins, 2 of 2 against
+    /// 0 (one too late, one answered but never arriving). `answered` counts every answer,
+    /// `arrived` every arrival, in time or not.
+    #[test]
+    fn coverage_counts_the_requests_that_arrive_in_time() {
+        let reqs: Vec<Request> =
+            [(0, "a", "b"), (1, "a", "b"), (2, "a", "b"), (3, "a", "b"), (4, "b", "a"), (5, "b", "a")]
+                .iter()
+                .map(|&(i, f, t)| request(i, f, t))
+                .collect();
+        let ours =
+            system("x", &[(0, Some(10)), (1, Some(24)), (2, Some(30)), (3, Some(1)), (4, Some(25)), (5, Some(3))]);
+        let ours_m = [
+            (0, "b", Some(0.4)),
+            (1, "b", Some(1.0)),
+            (2, "b", Some(1.25)),
+            (3, "b", Some(0.1)),
+            (4, "a", Some(1.1)),
+            (5, "a", None),
+        ]
+        .map(|(r, to, l)| measured(r, to, l, 1.0));
+        let theirs = system("y", &[(0, Some(5)), (1, None), (2, Some(20)), (3, None), (4, Some(3)), (5, Some(24))]);
+        let theirs_m = [(0, "b", Some(0.2)), (2, "b", Some(0.9)), (4, "a", Some(0.2)), (5, "a", Some(1.0))]
+            .map(|(r, to, l)| measured(r, to, l, 1.0));
+        let pairs = vec![("a".to_string(), "b".to_string()), ("b".to_string(), "a".to_string())];
+        let rules = Rules { requests: &reqs, pairs: &pairs, jump_ratio: 2.0, horizon: 1.0 };
+        let m: Vec<Metric> = [(&ours, &ours_m[..]), (&theirs, &theirs_m[..])]
+            .iter()
+            .flat_map(|(s, per)| system_rows(s, per, rules))
+            .collect();
+        assert_eq!(value_of(&m, "x", "coverage", "a", "b"), 0.75);
+        assert_eq!(value_of(&m, "y", "coverage", "a", "b"), 0.5);
+        assert_eq!(value_of(&m, "x", "coverage", "b", "a"), 0.0);
+        assert_eq!(value_of(&m, "y", "coverage", "b", "a"), 1.0);
+        assert!((value_of(&m, "x", "coverage", "all", "all") - 0.5).abs() < 1e-12);
+        assert!((value_of(&m, "y", "coverage", "all", "all") - 4.0 / 6.0).abs() < 1e-12);
+        assert_eq!(value_of(&m, "x", "answered", "all", "all"), 1.0);
+        assert!((value_of(&m, "x", "arrived", "all", "all") - 5.0 / 6.0).abs() < 1e-12);
+        // Latency is over the requests that arrived, one value each.
+        let lat = m.iter().find(|r| r.system == "x" && r.metric == "perceived_latency_s" && r.from == "all").unwrap();
+        assert_eq!(lat.n, 5);
+        assert!((lat.value - (0.4 + 1.0 + 1.25 + 0.1 + 1.1) / 5.0).abs() < 1e-12);
+        // Every measured answer is jump-free here; unanswered requests do not succeed.
+        assert_eq!(value_of(&m, "y", "success", "all", "all"), 4.0 / 6.0);
+    }
+
+    pub(crate) fn value_of(m: &[Metric], system: &str, name: &str, from: &str, to: &str) -> f64 {
         m.iter()
             .find(|x| x.system == system && x.metric == name && x.from == from && x.to == to)
             .unwrap_or_else(|| panic!("no {system} {name} {from}→{to}"))
             .value
     }
 
-    /// Coverage is the share of a pair's requests answered within the horizon: a → b, the
-    /// first system reaches 3 of 4 in time (one too late, at 30 > 24 frames), the second 2
-    /// (two unanswered); b → a the second wins, 2 of 2 against 0 (one too late, one
-    /// unanswered). Answered counts every answer, in time or not.
-    #[test]
-    fn coverage_counts_the_requests_reached_in_time() {
-        let reqs: Vec<Request> =
-            [(0, "a", "b"), (1, "a", "b"), (2, "a", "b"), (3, "a", "b"), (4, "b", "a"), (5, "b", "a")]
-                .iter()
-                .map(|&(i, f, t)| request(i, f, t))
-                .collect();
-        let ours = system("x", &[(0, Some(10)), (1, Some(24)), (2, Some(30)), (3, Some(1)), (4, Some(25)), (5, None)]);
-        let theirs = system("y", &[(0, Some(5)), (1, None), (2, Some(20)), (3, None), (4, Some(3)), (5, Some(24))]);
-        let pairs = vec![("a".to_string(), "b".to_string()), ("b".to_string(), "a".to_string())];
-        let m: Vec<Metric> =
-            [&ours, &theirs].iter().flat_map(|s| system_rows(s, &[], &reqs, &pairs, 2.0, 24)).collect();
-        assert_eq!(value(&m, "x", "coverage", "a", "b"), 0.75);
-        assert_eq!(value(&m, "y", "coverage", "a", "b"), 0.5);
-        assert_eq!(value(&m, "x", "coverage", "b", "a"), 0.0);
-        assert_eq!(value(&m, "y", "coverage", "b", "a"), 1.0);
-        assert!((value(&m, "x", "coverage", "all", "all") - 0.5).abs() < 1e-12);
-        assert!((value(&m, "y", "coverage", "all", "all") - 4.0 / 6.0).abs() < 1e-12);
-        assert!((value(&m, "x", "answered", "all", "all") - 5.0 / 6.0).abs() < 1e-12);
-        // No measured answers: nothing succeeds (success needs a measured, jump-free answer).
-        assert_eq!(value(&m, "x", "success", "all", "all"), 0.0);
-    }
-
-    fn measured(request: i64, latency: f64, accel: f64) -> Measured {
-        Measured {
-            request,
-            from: "a".into(),
-            to: "b".into(),
-            jump: 0.0,
-            accel,
-            jerk: accel,
-            latency,
-            plausibility: Default::default(),
-            speed: vec![],
-        }
-    }
-
-    /// Paired differences use only the requests both answered, a minus b: here a is 0.5 s
-    /// slower on each (it loses) and 1 lower in acceleration (it wins).
+    /// Paired differences use only the requests both answered (both arrived, for the
+    /// latency), a minus b: here a is 0.5 s slower on each (it loses) and 1 lower in
+    /// acceleration (it wins).
     #[test]
     fn paired_differences_on_common_requests() {
-        let ours = vec![measured(0, 1.0, 1.0), measured(1, 2.0, 2.0), measured(2, 9.0, 9.0)];
-        let theirs = vec![measured(0, 0.5, 2.0), measured(1, 1.5, 3.0), measured(3, 0.0, 0.0)];
+        let ours = vec![
+            measured(0, "b", Some(1.0), 1.0),
+            measured(1, "b", Some(2.0), 2.0),
+            measured(2, "b", Some(9.0), 9.0),
+            measured(4, "b", None, 1.0),
+        ];
+        let theirs = vec![
+            measured(0, "b", Some(0.5), 2.0),
+            measured(1, "b", Some(1.5), 3.0),
+            measured(3, "b", Some(0.0), 0.0),
+            measured(4, "b", Some(0.1), 2.0),
+        ];
         let m = paired(("x", &ours), ("y", &theirs), &[("a".into(), "b".into())]);
-        let lat = m.iter().find(|x| x.metric == "paired_latency_s" && x.from == "all").unwrap();
+        let lat = m.iter().find(|x| x.metric == "paired_perceived_latency_s" && x.from == "all").unwrap();
         assert_eq!((lat.system.as_str(), lat.value, lat.n), ("x vs y", 0.5, 2));
         assert!(lat.ci_low.unwrap() > 0.0, "x is slower on every common request");
-        assert_eq!(value(&m, "x vs y", "paired_peak_accel_ratio", "a", "b"), -1.0);
+        assert_eq!(value_of(&m, "x vs y", "paired_discontinuity_accel", "a", "b"), -1.0);
         // Without plausibility frames the paired plausibility has no observations.
         assert_eq!(m.iter().find(|x| x.metric == "paired_plausibility_floor_scaled").unwrap().n, 0);
+    }
+
+    /// Every per-request measure resolves to a value or to "does not apply", never to a
+    /// misspelt id that silently measures nothing.
+    #[test]
+    fn every_per_request_measure_is_known() {
+        let p = measured(0, "b", Some(1.0), 1.0);
+        for (id, _) in per_request() {
+            assert!(reprise_benchmark::metrics::find(&id).is_some(), "{id} is not in the catalogue");
+            let known = value(&p, &id).is_some()
+                || id.starts_with("plausibility_")
+                || id.starts_with("liveliness_")
+                || id == "latency_routed_s";
+            assert!(known, "{id}");
+        }
+        assert_eq!(value(&p, "latency_direct_s"), Some(1.0));
+        assert_eq!(value(&p, "no_such"), None);
     }
 }

@@ -259,7 +259,7 @@ fn synthetic(dir: &Path) -> PathBuf {
         provenance: vec![("stage".into(), "test".into())],
     };
     let path = dir.join("index.html");
-    let html = crate::report::tests::with_ctx(&systems, &[], |ctx| html::page(&page, &rows, ctx));
+    let html = crate::report::tests::with_ctx(&systems, &rows, &[], |ctx| html::page(&page, &rows, ctx));
     std::fs::write(&path, html).unwrap();
     path
 }

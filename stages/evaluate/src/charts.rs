@@ -155,8 +155,9 @@ fn gap_to_minimum(pts: &[(i64, f64)]) -> Vec<(i64, f64)> {
     pts.iter().filter(|p| p.1.is_finite()).map(|&(i, v)| (i, (v - min + delta).log10())).collect()
 }
 
-/// Latency distributions: one histogram row per system on a shared seconds axis, with the
-/// count of unanswered requests beside it. `series`: (system, latencies in s, unanswered).
+/// Perceived-latency distributions: one histogram row per system on a shared seconds axis,
+/// with the count of requests that never arrived beside it. `series`: (system, perceived
+/// latencies in s, requests that never arrived).
 pub fn latency_histograms(series: &[(String, Vec<f64>, usize)]) -> String {
     let bins = 30;
     let (rw, rh) = (560.0, 60.0);
@@ -164,7 +165,11 @@ pub fn latency_histograms(series: &[(String, Vec<f64>, usize)]) -> String {
     let (lo, hi) = if lo.is_finite() { (0.0_f64.min(lo), hi.max(lo + 1e-9)) } else { (0.0, 1.0) };
     let width = (hi - lo) / bins as f64;
     let h = 40.0 + rh * series.len() as f64 + 30.0;
-    let mut s = svg_open(rw + 380.0, h, "Latency per request (s), by system: histograms of answered requests");
+    let mut s = svg_open(
+        rw + 380.0,
+        h,
+        "Perceived latency per request (s), by system: histograms of the requests that arrived",
+    );
     let sx = scale(lo, hi, 140.0, 140.0 + rw);
     for (i, (name, v, unanswered)) in series.iter().enumerate() {
         let mut counts = vec![0usize; bins];
@@ -191,7 +196,7 @@ pub fn latency_histograms(series: &[(String, Vec<f64>, usize)]) -> String {
         let median = reprise_motion_metrics::quantile(v, 0.5);
         let _ = write!(
             s,
-            "<line x1='140' y1='{base}' x2='{}' y2='{base}' stroke='#999'/><text x='{}' y='{}' font-size='11'>n = {}, median {median:.2} s, unanswered {unanswered}</text>",
+            "<line x1='140' y1='{base}' x2='{}' y2='{base}' stroke='#999'/><text x='{}' y='{}' font-size='11'>n = {}, median {median:.2} s, never arrived {unanswered}</text>",
             140.0 + rw,
             150.0 + rw,
             base - 20.0,

@@ -15,9 +15,10 @@ use reprise_stagekit::StageResult;
 
 use crate::charts::LatentPanel;
 use crate::measure::Measured;
-use crate::systems::{System, KNOWN};
+use crate::systems::System;
 use crate::training::{RigRef, Training};
 use crate::{html, player, Args};
+use reprise_benchmark::systems::SYSTEMS;
 
 /// What the page is built from.
 pub struct Inputs<'a> {
@@ -116,9 +117,10 @@ pub fn figures<'a>(inp: Inputs<'a>, provenance: &reprise_artifact::Provenance) -
         .iter()
         .zip(inp.measured)
         .map(|(s, per)| {
-            let unanswered = inp.requests.iter().filter(|r| !s.answered(r)).count();
-            (s.shown.clone(), per.iter().map(|m| m.latency).collect(), unanswered)
+            let arrived: Vec<f64> = per.iter().filter_map(|m| m.perceived_latency).collect();
+            (s.shown.clone(), inp.requests.len() - arrived.len(), arrived)
         })
+        .map(|(shown, never, arrived)| (shown, arrived, never))
         .collect();
     Ok(html::Page {
         name: &args.name,
@@ -161,11 +163,12 @@ fn filmstrip(rig: RigRef<'_>, synth: &curves::Curves) -> StageResult<Option<(Str
     Ok(Some((format!("Script `{name}`, every 12th frame (0.5 s), captioned with the model that made it."), frames)))
 }
 
-/// What the inputs lack, one sentence each: systems of [`KNOWN`] not given, ordered label
+/// What the inputs lack, one sentence each: systems of [`SYSTEMS`] not given, ordered label
 /// pairs without requests, and pairs a given system answered none of.
 pub fn missing(systems: &[System], requests: &[Request], labels: &[String]) -> Vec<String> {
     let mut out = Vec::new();
-    for (id, shown) in KNOWN.iter().filter(|(id, _)| !systems.iter().any(|s| s.id == *id)) {
+    for def in SYSTEMS.iter().filter(|d| !systems.iter().any(|s| s.id == d.id)) {
+        let (id, shown) = (def.id, def.shown);
         out.push(format!(
             "{shown} (`{id}`) was not given to this run: it is absent from every table, figure and the player."
         ));

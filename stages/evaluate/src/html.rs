@@ -1,5 +1,5 @@
 //! The self-contained HTML report. Sections, in order: what is missing from the inputs,
-//! conclusions (one sentence per overall metric, from [`report::best`] and the metric rows),
+//! conclusions (one sentence per headline metric, from [`crate::model`]),
 //! the metric tables (HTML, CIs shown, the long one sortable), the transition player and the
 //! synthesized scripts (`assets/player.js`, data inline), the figures ([`crate::charts`],
 //! PNG renders), the definitions and the provenance. No external resources; everything but
@@ -15,13 +15,13 @@ use std::fmt::Write as _;
 
 use base64::Engine as _;
 
-use crate::aggregate::PAIRED;
 use crate::charts::{self, LatentPanel};
 use crate::encode::Encoded;
 use crate::measure::{Phase, PlausibilityReference as Reference, Space};
+use crate::model;
 use crate::player::{Player, PHASES};
 use crate::render::{png, render, Camera};
-use crate::report::{self, cell, find, Verdict, OVERALL};
+use crate::report;
 use crate::Metric;
 
 /// One label's optimisation trace: (label, per iteration (iteration, objective)).
@@ -81,7 +81,7 @@ pub struct Page<'a> {
     /// Mean peak vertex speed around transitions: (system, offsets from the first target
     /// frame, values).
     pub speed: Vec<(String, Vec<i64>, Vec<f64>)>,
-    /// Per system: (shown name, latencies of answered requests in s, unanswered requests).
+    /// Per system: (shown name, perceived latencies in s, requests that never arrived).
     pub latencies: Vec<(String, Vec<f64>, usize)>,
     /// Per label the GPLVM objective by iteration.
     pub traces: Vec<Trace>,
@@ -160,59 +160,40 @@ fn missing(s: &mut String, notes: &[String]) {
     *s += "</ul></section>";
 }
 
-/// What each overall metric measures and which way is better, for the conclusions.
-fn describe(metric: &str) -> &'static str {
-    match metric {
-        "answered" => "share of requests answered (higher is better)",
-        "success" => "share answered without a pose jump (higher is better)",
-        "coverage" => "share reaching the target label in time (higher is better)",
-        "latency_s" => "seconds from the request to the first frame of the target (lower is better)",
-        "peak_accel_ratio" => "peak vertex acceleration over the transition, × training p95 (lower is smoother)",
-        "peak_jerk_ratio" => "peak vertex jerk over the transition, × training p95 (lower is smoother)",
-        "plausibility_raw_scaled" => "distance to the nearest training frame, × median frame step (lower is closer)",
-        "plausibility_floor_scaled" => {
-            "distance to the nearest training frame or its PCA projection, × median frame step (lower is closer)"
-        }
-        "variety" => "RMS vertex distance between answers under two seeds (not ranked)",
-        _ => "",
-    }
-}
-
-/// Every system's value of `metric` overall, `name value [lo, hi]`, joined.
-fn values(m: &[Metric], ctx: &report::Context<'_>, metric: &str) -> String {
-    ctx.systems
-        .iter()
-        .map(|(id, shown)| format!("{} {}", esc(shown), report::overall_cell(m, ctx, id, metric)))
-        .collect::<Vec<_>>()
-        .join("; ")
-}
-
 fn conclusions(s: &mut String, m: &[Metric], ctx: &report::Context<'_>) {
-    *s += "<section id='conclusions'><h2>Conclusions</h2><p>All label pairs; mean [95 % bootstrap CI]. One \
-           sentence per overall metric; the verdicts are the Markdown report's.</p><ul class='conclusions'>";
-    for name in OVERALL {
-        let what = describe(name);
-        let verdict = match report::best(m, ctx, name) {
-            _ if name == "variety" => {
-                "Not ranked (it rewards noise as much as real alternatives; read it beside plausibility)".into()
-            }
-            Some(Verdict::Best(b, false)) => format!("<b>{}</b> is best, clear of the runner-up's CI", esc(b)),
-            Some(Verdict::Best(b, true)) => {
-                format!("<b>{}</b> is best, but its CI overlaps the runner-up's (not a clear win)", esc(b))
-            }
-            Some(Verdict::Tie(t)) => format!("<b>{}</b> tie exactly", esc(&t.join(", "))),
-            None => "Not ranked here (fewer than two systems measured)".into(),
-        };
-        let notes = report::constructed_notes(ctx, name);
-        let unranked = if notes.is_empty() {
-            String::new()
-        } else {
-            format!(" Not ranked where it follows from construction ({})", esc(&notes.join("; ")))
-        };
-        let _ = write!(s, "<li><code>{name}</code> ({what}): {verdict} — {}.{unranked}</li>", values(m, ctx, name));
+    *s += "<section id='conclusions'><h2>Conclusions</h2><p>All label pairs; mean [95 % bootstrap CI] over requests. \
+           One sentence per headline metric; the verdicts are the Markdown report's.</p><ul class='conclusions'>";
+    for c in model::sentences(m, ctx) {
+        let verdict = report::verdict_words(&c.verdict, |n| format!("<b>{}</b>", esc(n)));
+        let values: Vec<String> = c.values.iter().map(|(n, v)| format!("{} {v}", esc(n))).collect();
+        let _ = write!(s, "<li><code>{}</code> ({}): {verdict} — {}.</li>", c.metric, esc(&c.what), values.join("; "));
     }
-    *s += "<li>Systems that replay training frames score a raw plausibility of 0 away from their blends; reprise's \
-           poses live in each label's PCA subspace, so compare <code>plausibility_floor_*</code> for like with like.</li></ul></section>";
+    for n in model::notes(m, ctx) {
+        let _ = write!(s, "<li>{}</li>", code(&esc(&n)));
+    }
+    *s += "</ul></section>";
+}
+
+/// Markdown's `code` spans as HTML.
+fn code(s: &str) -> String {
+    let mut out = String::new();
+    for (i, part) in s.split('`').enumerate() {
+        if i % 2 == 1 {
+            let _ = write!(out, "<code>{part}</code>");
+        } else {
+            out += part;
+        }
+    }
+    out
+}
+
+/// A table of the page model.
+fn model_table(s: &mut String, t: &model::Table) {
+    let _ = write!(s, "<h3 id='t-{}'>{}</h3>", t.id, esc(&t.title));
+    let head: Vec<String> = t.head.iter().map(|h| esc(h)).collect();
+    let rows: Vec<Vec<(String, bool, bool)>> =
+        t.rows.iter().map(|r| r.iter().map(|c| (code(&esc(&c.text)), c.best, c.numeric)).collect()).collect();
+    table(s, t.id, &head, &rows);
 }
 
 /// An HTML table: header cells, then rows of (cell, is-best, numeric) triples.
@@ -307,95 +288,17 @@ fn text(c: &str) -> (String, bool, bool) {
 }
 
 fn tables(s: &mut String, m: &[Metric], ctx: &report::Context<'_>) {
-    let names: Vec<String> = ctx.systems.iter().map(|(_, n)| esc(n)).collect();
-    *s += "<section id='metrics'><h2>Metric tables</h2><h3>Overall (mean [95 % CI]; best in bold)</h3>";
-    let mut head = vec!["metric".to_string()];
-    head.extend(names.iter().cloned());
-    head.push("best".into());
-    let rows: Vec<Vec<(String, bool, bool)>> = OVERALL
-        .iter()
-        .map(|name| {
-            let verdict = report::best(m, ctx, name);
-            let winners: Vec<&str> = match &verdict {
-                Some(Verdict::Best(b, _)) => vec![*b],
-                Some(Verdict::Tie(t)) => t.clone(),
-                None => vec![],
-            };
-            let mut r = vec![text(&format!("<code>{name}</code>"))];
-            for (id, shown) in ctx.systems {
-                let v = report::overall_cell(m, ctx, id, name);
-                r.push((v, winners.contains(&shown.as_str()) && *name != "variety", true));
-            }
-            r.push(text(&esc(&if *name == "variety" { "not ranked".into() } else { winners.join(", ") })));
-            r
-        })
-        .collect();
-    table(s, "overall", &head, &rows);
-
-    *s += "<h3>Plausibility by phase (lower is closer to training poses)</h3>";
-    let mut head = vec!["reference".to_string(), "space".into(), "phase".into()];
-    head.extend(names.iter().cloned());
-    let mut rows = Vec::new();
-    for r in Reference::ALL {
-        for sp in Space::ALL {
-            for phase in Phase::ALL.into_iter().map(Some).chain(std::iter::once(None)) {
-                let name = crate::measure::plausibility::metric_name(r, sp, phase);
-                let mut row = vec![text(r.name()), text(sp.name()), text(phase.map_or("answer", Phase::name))];
-                row.extend(ctx.systems.iter().map(|(id, _)| (cell(find(m, id, &name, "all", "all")), false, true)));
-                rows.push(row);
-            }
-        }
+    *s += "<section id='metrics'><h2>Metric tables</h2>";
+    for t in [
+        model::overall(m, ctx),
+        model::latency(m, ctx),
+        model::liveliness(m, ctx),
+        model::plausibility(m, ctx),
+        model::paired(m, ctx),
+        model::quality(m, ctx),
+    ] {
+        model_table(s, &t);
     }
-    table(s, "phases", &head, &rows);
-
-    if let Some((ours, ours_shown)) = ctx.systems.first() {
-        let _ = write!(s, "<h3>Paired, on requests both answered ({} − other)</h3>", esc(ours_shown));
-        let head: Vec<String> =
-            ["against", "metric", "difference [95 % CI]", "n", "favours"].map(String::from).to_vec();
-        let mut rows = Vec::new();
-        for (id, shown) in ctx.systems.iter().skip(1) {
-            for (name, unit) in PAIRED {
-                let Some(d) = find(m, &format!("{ours} vs {id}"), &format!("paired_{name}"), "all", "all") else {
-                    continue;
-                };
-                let side = match (d.ci_low, d.ci_high) {
-                    (_, Some(hi)) if hi < 0.0 => format!("{ours_shown} (CI below 0)"),
-                    (Some(lo), _) if lo > 0.0 => format!("{shown} (CI above 0)"),
-                    _ => "neither (CI spans 0)".into(),
-                };
-                rows.push(vec![
-                    text(&esc(shown)),
-                    text(&format!("<code>{name}</code> ({unit})")),
-                    (cell(Some(d)), false, true),
-                    (d.n.to_string(), false, true),
-                    text(&esc(&side)),
-                ]);
-            }
-        }
-        table(s, "paired", &head, &rows);
-    }
-
-    *s += "<h3>Model quality (held-out RMS vertex error, mesh units)</h3>";
-    let head: Vec<String> = ["label", "held-out GPLVM", "held-out PCA (q)", "PCA d = 3, scaled", "PCA d = 3, unscaled"]
-        .map(String::from)
-        .to_vec();
-    let rows: Vec<Vec<(String, bool, bool)>> = ctx
-        .labels
-        .iter()
-        .map(|l| {
-            let v = |sys, name| {
-                (find(m, sys, name, l, "").map_or("–".to_string(), |x| format!("{:.4}", x.value)), false, true)
-            };
-            vec![
-                text(&esc(l)),
-                v("gplvm", "heldout_mesh_rmse"),
-                v("pca", "heldout_mesh_rmse"),
-                v("scaled", "ablation_mesh_rmse"),
-                v("unscaled", "ablation_mesh_rmse"),
-            ]
-        })
-        .collect();
-    table(s, "quality", &head, &rows);
 
     *s += "<details><summary>Every overall row (click a header to sort)</summary>";
     let head: Vec<String> =
@@ -521,20 +424,20 @@ fn figures(s: &mut String, p: &Page<'_>, m: &[Metric], ctx: &report::Context<'_>
     *s += "<section id='figures'><h2>Figures</h2>";
     let _ = write!(
         s,
-        "<h3>How long does each system take?</h3><div id='latency'>{}</div>",
+        "<h3>How long until each system looks like the target? (perceived latency)</h3><div id='latency'>{}</div>",
         charts::latency_histograms(&p.latencies)
     );
     *s += "<h3>Where in a transition do poses leave the training data?</h3><div class='row' id='plausibility'>";
     for r in Reference::ALL {
         for sp in Space::ALL {
-            let values: Vec<Vec<charts::Bar>> = Phase::ALL
+            let values: Vec<Vec<charts::Bar>> = Phase::AFTER
                 .iter()
                 .map(|ph| {
                     let name = crate::measure::plausibility::metric_name(r, sp, Some(*ph));
                     ctx.systems
                         .iter()
                         .map(|(id, _)| {
-                            find(m, id, &name, "all", "all")
+                            report::find(m, id, &name, "all", "all")
                                 .filter(|x| x.n > 0)
                                 .map(|x| (x.value, x.ci_low.unwrap_or(x.value), x.ci_high.unwrap_or(x.value)))
                         })
@@ -542,7 +445,7 @@ fn figures(s: &mut String, p: &Page<'_>, m: &[Metric], ctx: &report::Context<'_>
                 })
                 .collect();
             let title = format!("plausibility, {} reference, {} space", r.name(), sp.name());
-            *s += &charts::grouped_bars(&title, &Phase::ALL.map(Phase::name), &shown, &values);
+            *s += &charts::grouped_bars(&title, &Phase::AFTER.map(Phase::name), &shown, &values);
         }
     }
     *s += "</div><h3>Which pairs does each system reach in time?</h3><div class='row' id='coverage'>";

@@ -5,9 +5,12 @@
 //!
 //! The work is split as measuring ([`training`]: the reference values, once;
 //! [`measure`]: one answered request of one system, one module per metric family),
-//! aggregating ([`aggregate`]: means and CIs per pair, shares, paired differences) and
-//! reporting ([`report`], [`figures`], `html`). A new system is one more entry in
-//! [`systems::KNOWN`] and its two inputs; a new metric one more measure and its row.
+//! aggregating ([`aggregate`]: one value per request, means and CIs over requests per pair,
+//! shares, paired differences), concluding (`reprise_benchmark`: the verdicts, once) and
+//! reporting ([`model`]: the report's content; [`report`] and `html` render it). The
+//! systems and metrics are declared in `reprise_benchmark`: a new metric is one row there
+//! plus its measurement and its line in [`aggregate::value`]; a new system one row there
+//! plus its answers and curves among this stage's inputs.
 
 pub mod aggregate;
 #[cfg(test)]
@@ -17,12 +20,14 @@ mod encode;
 mod figures;
 mod html;
 pub mod measure;
+pub mod model;
 mod player;
 mod render;
 pub mod report;
 pub mod systems;
 pub mod training;
 
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use clap::Parser;
@@ -30,7 +35,7 @@ use rayon::prelude::*;
 use reprise_artifact::controls::Controls;
 use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::transitions::{self, Request};
-use reprise_artifact::{bridges, motion_graph, pca, scales, Columns, Kind, Table};
+use reprise_artifact::{bridges, gplvm, motion_graph, pca, scales, Columns, Kind, Table};
 use reprise_stagekit::rig::open_rig;
 use reprise_stagekit::{StageError, StageResult};
 use serde::Serialize;
@@ -38,6 +43,7 @@ use serde::Serialize;
 pub use aggregate::Metric;
 use aggregate::{exact, metric};
 use measure::Measured;
+pub use model::Context;
 use systems::System;
 use training::Training;
 
@@ -168,9 +174,17 @@ pub struct Args {
     /// Coverage horizon T, seconds.
     #[arg(long, default_value_t = 2.0)]
     pub coverage_seconds: f64,
-    /// Measure plausibility on every n-th synthesized frame.
+    /// Measure plausibility on every n-th frame after the request.
     #[arg(long, default_value_t = 3)]
     pub plausibility_stride: usize,
+    /// Arrival: frames in a row whose nearest training pose (on the mesh) belongs to the
+    /// target label.
+    #[arg(long, default_value_t = 6)]
+    pub arrival_frames: usize,
+    /// Frames of the discontinuity window centred on the label switch (the same for every
+    /// system).
+    #[arg(long, default_value_t = 24)]
+    pub discontinuity_window: usize,
     /// Success: no frame of the answer with a peak vertex speed above this many times the
     /// training data's 99th percentile (a pose jump).
     #[arg(long, default_value_t = 2.0)]
@@ -243,10 +257,17 @@ impl Args {
 
 /// Runs the stage; returns the metric rows.
 pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
-    if args.window < 2 || args.coverage_seconds.is_nan() || args.coverage_seconds < 0.0 || args.plausibility_stride == 0
+    if args.window < 2
+        || args.coverage_seconds.is_nan()
+        || args.coverage_seconds < 0.0
+        || args.plausibility_stride == 0
+        || args.arrival_frames == 0
+        || args.discontinuity_window < 4
     {
         return Err(StageError::Config(
-            "need --window >= 2, --coverage-seconds >= 0, --plausibility-stride >= 1".into(),
+            "need --window >= 2, --coverage-seconds >= 0, --plausibility-stride >= 1, --arrival-frames >= 1, \
+             --discontinuity-window >= 4"
+                .into(),
         ));
     }
     if args.check {
@@ -273,7 +294,6 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         }
         systems.push(system);
     }
-    let labels = label_order(&labeled);
     let scale_rows = scales::read(&args.scales)?;
     let weight = scales::mean_weights(&scale_rows, &labeled.frames.controls);
     let (pca_controls, pcas) = pca::read_models(&args.pca_models)?;
@@ -290,19 +310,30 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         .map(|p| Ok((p.label.clone(), reprise_label_models::rig_map(p, &pca_controls, &scale_rows, &args.scales)?)))
         .collect::<StageResult<Vec<_>>>()?;
     let training = Training::measure(&rig, &labeled, weight, &maps, args.mesh_reference_limit)?;
+    let labels = training.labels.clone();
     let pairs: Vec<(String, String)> = {
         let mut p: Vec<(String, String)> = reqs.iter().map(|r| (r.from.clone(), r.to.clone())).collect();
         p.dedup();
         p
     };
-    let settings = measure::Settings { k: args.window, stride: args.plausibility_stride };
-    let horizon = (args.coverage_seconds * training.fps).round() as i64;
+    let settings = measure::Settings {
+        k: args.window,
+        stride: args.plausibility_stride,
+        arrival_frames: args.arrival_frames,
+        discontinuity_window: args.discontinuity_window,
+    };
+    let rules = aggregate::Rules {
+        requests: &reqs,
+        pairs: &pairs,
+        jump_ratio: args.jump_ratio,
+        horizon: args.coverage_seconds,
+    };
 
     let mut out: Vec<Metric> = Vec::new();
     let mut measured: Vec<Vec<Measured>> = Vec::new();
     for system in &systems {
         let per = measure_system(&rig, &training, settings, &reqs, system)?;
-        out.extend(aggregate::system_rows(system, &per, &reqs, &pairs, args.jump_ratio, horizon));
+        out.extend(aggregate::system_rows(system, &per, rules));
         measured.push(per);
     }
     for (i, a) in systems.iter().enumerate() {
@@ -311,6 +342,9 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         }
     }
     out.extend(varieties);
+    let links = bridges::read(&args.bridges)?;
+    let on_bridge = starts_on_bridges(&reqs, &links, &gplvm::read_latents(&args.latents)?);
+    out.extend(aggregate::start_rows(&reqs, &pairs, &on_bridge));
     let mg = motion_graph::read_graph(&args.mg_nodes, &args.mg_edges)?;
     mg.check_window(args.window, "--window")?;
     mg.check_frames(&labeled, &args.labeled_frames)?;
@@ -320,7 +354,9 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     out.extend(model_quality(&args.gplvm_fits, &args.pca_errors)?);
 
     let shown: Vec<(String, String)> = systems.iter().map(|s| (s.id.clone(), s.shown.clone())).collect();
-    let ctx = report::Context {
+    let ids: Vec<&str> = systems.iter().map(|s| s.id.as_str()).collect();
+    let conclusions = reprise_benchmark::Conclusions::new(&out, &ids);
+    let ctx = model::Context {
         name: &args.name,
         labels: &labels,
         systems: &shown,
@@ -329,6 +365,9 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         coverage_seconds: args.coverage_seconds,
         jump_ratio: args.jump_ratio,
         stride: args.plausibility_stride,
+        conclusions: &conclusions,
+        arrival_frames: args.arrival_frames,
+        discontinuity_window: args.discontinuity_window,
         graph_kept: (nodes.in_scc.iter().filter(|v| **v).count(), nodes.frame.len()),
         deterministic,
     };
@@ -336,7 +375,6 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     let speed: Vec<(String, Vec<i64>, Vec<f64>)> =
         systems.iter().zip(&measured).map(|(s, per)| (s.shown.clone(), offsets(), mean_speed(per))).collect();
     let camera_mesh = reprise_stagekit::rig::meshes(&rig, &[labeled.frames.row(0).to_vec()])?;
-    let links = bridges::read(&args.bridges)?;
     let inputs = figures::Inputs {
         args,
         rig: &rig,
@@ -363,15 +401,28 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     Ok(Some(out))
 }
 
-/// Labels in order of first appearance in the labeled frames.
-fn label_order(labeled: &LabeledFrames) -> Vec<String> {
-    let mut l: Vec<String> = Vec::new();
-    for x in &labeled.label {
-        if !l.contains(x) {
-            l.push(x.clone());
-        }
+/// The requests whose start frame is the first point of a bridge of their pair: the
+/// start's latent row (by segment and frame among label A's latents, in the model's point
+/// order) is a bridge's `from_point`.
+fn starts_on_bridges(reqs: &[Request], links: &[bridges::Bridge], latents: &gplvm::Latents) -> HashSet<i64> {
+    let mut point: HashMap<(&str, i64, i64), i64> = HashMap::new();
+    let mut next: HashMap<&str, i64> = HashMap::new();
+    for r in 0..latents.label.len() {
+        let l = latents.label[r].as_str();
+        let i = next.entry(l).or_default();
+        point.insert((l, latents.segment_id[r], latents.frame[r]), *i);
+        *i += 1;
     }
-    l
+    let starts: HashSet<(&str, &str, i64)> =
+        links.iter().map(|b| (b.from.as_str(), b.to.as_str(), b.from_point)).collect();
+    reqs.iter()
+        .filter(|r| {
+            point
+                .get(&(r.from.as_str(), r.segment_id, r.frame))
+                .is_some_and(|p| starts.contains(&(r.from.as_str(), r.to.as_str(), *p)))
+        })
+        .map(|r| r.request)
+        .collect()
 }
 
 /// Every answered request of one system, measured (in parallel).

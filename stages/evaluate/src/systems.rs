@@ -7,33 +7,6 @@ use reprise_artifact::curves::{self, Curves};
 use reprise_artifact::transitions::{self, Answer, Answers, Request};
 use reprise_stagekit::{StageError, StageResult};
 
-/// Every system the benchmark knows: (id in `transition_answers.system`, name in the report).
-/// reprise comes first: it is the method under test, and every other system is paired with it.
-pub const KNOWN: [(&str, &str); 4] = [
-    ("reprise", "reprise"),
-    ("baseline", "Motion Graphs"),
-    ("motion-matching", "Motion matching"),
-    ("crossfade", "Crossfade"),
-];
-
-/// Why `system`'s overall `metric` follows from how the system is built rather than from
-/// what it was asked (`None`: it is measured). Such a value is shown, never ranked.
-///
-/// Motion matching searches only the target label's frames, at most every
-/// `search_interval` (0.1 s by default) after the request, and its first search always takes
-/// a target frame; the crossfade starts blending into its nearest target frame on the next
-/// frame. So both answer every request, within any coverage horizon of at least one search
-/// interval, at a latency set by their schedule.
-pub fn constructed(system: &str, metric: &str) -> Option<&'static str> {
-    match (system, metric) {
-        ("motion-matching", "answered" | "coverage") => Some("its first search always takes a target frame"),
-        ("motion-matching", "latency_s") => Some("set by its search schedule"),
-        ("crossfade", "answered" | "coverage") => Some("it always blends into a target frame"),
-        ("crossfade", "latency_s") => Some("one frame, by construction"),
-        _ => None,
-    }
-}
-
 /// One answer's frames: controls (rows in the labeled frames' control order) and, per
 /// frame, the label that produced it (a blended frame counts as the label blended into)
 /// and, for a system with latent spaces, the latent point.
@@ -50,7 +23,7 @@ pub struct Played {
 /// One system: its answers and the frames it played for each answered request.
 #[derive(Debug, Clone)]
 pub struct System {
-    /// Id (see [`KNOWN`]).
+    /// Id (see [`reprise_benchmark::systems::SYSTEMS`]).
     pub id: String,
     /// Name shown in the report.
     pub shown: String,
@@ -86,7 +59,7 @@ impl System {
         requests: &[Request],
         controls: &[String],
     ) -> StageResult<Self> {
-        let shown = KNOWN.iter().find(|(k, _)| *k == id).map_or(id, |(_, s)| *s).to_string();
+        let shown = reprise_benchmark::systems::shown(id).to_string();
         let a = transitions::read_answers(answers)?;
         if a.system != id && !(a.by_request.is_empty() && requests.is_empty()) {
             return Err(StageError::Input(format!(

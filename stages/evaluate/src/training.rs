@@ -8,7 +8,7 @@
 
 use rayon::prelude::*;
 use reprise_artifact::frames::LabeledFrames;
-use reprise_motion_metrics::{nearest_k, peak_speeds, peaks, quantile};
+use reprise_motion_metrics::{nearest_k, peak_speeds, peaks, quantile, rms_speeds};
 use reprise_numerics::gplvm::RigMap;
 use reprise_stagekit::rig::{mesh_rmse, meshes};
 use reprise_stagekit::{StageError, StageResult};
@@ -58,6 +58,14 @@ pub struct Training {
     /// The search basis: the training frames' top principal directions in scaled space
     /// (at most [`SEARCH_BASIS`]), used only to order candidates (distances stay exact).
     pub basis: Option<reprise_numerics::pca::Pca>,
+    /// Labels, in order of first appearance.
+    pub labels: Vec<String>,
+    /// Label (index into `labels`) of every training row (the same rows in `raw` and
+    /// `projected`).
+    pub row_label: Vec<usize>,
+    /// Per label, the per-frame RMS vertex speeds of its training frames (mesh units/s),
+    /// ascending: the liveliness reference.
+    pub speeds: Vec<Vec<f64>>,
 }
 
 /// Dimension of the search basis of [`Reference::nearest`].
@@ -70,6 +78,8 @@ pub struct Nearest {
     pub scaled: f64,
     /// RMS vertex distance to the nearest of the [`MESH_CANDIDATES`] (mesh units).
     pub mesh: f64,
+    /// The training row of that mesh-nearest pose (`None` for an empty set).
+    pub row: Option<usize>,
 }
 
 impl Reference {
@@ -80,15 +90,16 @@ impl Reference {
     pub fn nearest(&self, z: &[f64], y: &[f64], m: &[f64]) -> Nearest {
         let near = self.candidates(z, y);
         let scaled = near.first().map_or(f64::INFINITY, |n| n.0);
-        let mesh = near.iter().map(|&(_, i)| self.mesh_distance(i, m)).fold(f64::INFINITY, f64::min);
-        Nearest { scaled, mesh }
+        let best = near.iter().map(|&(_, i)| (i, self.mesh_distance(i, m))).min_by(|a, b| a.1.total_cmp(&b.1));
+        Nearest { scaled, mesh: best.map_or(f64::INFINITY, |b| b.1), row: best.map(|b| b.0) }
     }
 
     /// The mesh-nearest of the [`MESH_CANDIDATES`] scaled-space nearest rows (the pose the
     /// mesh plausibility of [`Reference::nearest`] measures against): (row, RMS vertex
     /// distance in mesh units); `None` for an empty set.
     pub fn nearest_row(&self, z: &[f64], y: &[f64], m: &[f64]) -> Option<(usize, f64)> {
-        self.candidates(z, y).iter().map(|&(_, i)| (i, self.mesh_distance(i, m))).min_by(|a, b| a.1.total_cmp(&b.1))
+        let n = self.nearest(z, y, m);
+        n.row.map(|r| (r, n.mesh))
     }
 
     /// The [`MESH_CANDIDATES`] rows nearest to `z` in scaled space, (distance, row),
@@ -160,6 +171,7 @@ impl Training {
         };
         let z = |p: &[f64]| -> Vec<f64> { p.iter().zip(&weight).map(|(a, w)| a * w).collect() };
         struct Segment {
+            rms_speed: Vec<f64>,
             acc: Vec<f64>,
             jerk: Vec<f64>,
             speed: Vec<f64>,
@@ -199,6 +211,7 @@ impl Training {
                     .collect();
                 raw_out.iter_mut().zip(&m).for_each(|(o, v)| *o = *v as f32);
                 Ok(Segment {
+                    rms_speed: rms_speeds(&m, dim, fps).get(1..).unwrap_or_default().to_vec(),
                     acc: a[1..a.len().saturating_sub(1)].to_vec(),
                     jerk: j[1..j.len().saturating_sub(2).max(1)].to_vec(),
                     speed: v.get(1..).unwrap_or_default().to_vec(),
@@ -211,8 +224,19 @@ impl Training {
         let (mut acc, mut jerk, mut speed, mut mesh_steps) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut raw = Reference { mesh: raw_mesh, ..Default::default() };
         let mut floor = Reference { mesh: floor_mesh, ..Default::default() };
-        for s in segments {
+        let mut labels: Vec<String> = Vec::new();
+        let mut row_label = Vec::with_capacity(n);
+        let mut speeds: Vec<Vec<f64>> = Vec::new();
+        for (s, &(start, end)) in segments.into_iter().zip(&runs) {
             let s = s?;
+            let name = &labeled.label[start];
+            let li = labels.iter().position(|l| l == name).unwrap_or_else(|| {
+                labels.push(name.clone());
+                speeds.push(Vec::new());
+                labels.len() - 1
+            });
+            row_label.extend(std::iter::repeat_n(li, end - start));
+            speeds[li].extend(s.rms_speed);
             acc.extend(s.acc);
             jerk.extend(s.jerk);
             speed.extend(s.speed);
@@ -243,7 +267,11 @@ impl Training {
                 })
             })
             .collect();
+        speeds.iter_mut().for_each(|v| v.sort_by(f64::total_cmp));
         Ok(Self {
+            labels,
+            row_label,
+            speeds,
             fps,
             dim,
             acc95: quantile(&acc, 0.95),
@@ -272,7 +300,24 @@ impl Training {
         let y = self.reduce(&z);
         let raw = self.raw.nearest(&z, &y, m);
         let proj = self.projected.nearest(&z, &y, m);
-        (raw, Nearest { scaled: raw.scaled.min(proj.scaled), mesh: raw.mesh.min(proj.mesh) })
+        let row = if proj.mesh < raw.mesh { proj.row } else { raw.row };
+        (raw, Nearest { scaled: raw.scaled.min(proj.scaled), mesh: raw.mesh.min(proj.mesh), row })
+    }
+
+    /// Index of label `name` in [`Training::labels`].
+    pub fn label_index(&self, name: &str) -> Option<usize> {
+        self.labels.iter().position(|l| l == name)
+    }
+
+    /// The mean per-frame RMS vertex speed of label `li`'s training frames (mesh units/s;
+    /// NaN for a label without two consecutive frames).
+    pub fn mean_speed(&self, li: usize) -> f64 {
+        let v = &self.speeds[li];
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            v.iter().sum::<f64>() / v.len() as f64
+        }
     }
 
     /// Scaled controls $z = \bar w \odot p$.

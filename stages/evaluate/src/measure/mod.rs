@@ -1,7 +1,10 @@
 //! Measuring one answered request of one system — every system by the same code, on the
 //! same requests, against the same training reference ([`Training`]).
 
+pub mod arrival;
+pub mod liveliness;
 pub mod motion;
+pub mod nearest;
 pub mod plausibility;
 pub mod variety;
 
@@ -15,7 +18,8 @@ use crate::training::{RigRef, Training};
 pub use plausibility::{Plausibility, Reference as PlausibilityReference, Space};
 
 /// The phases of an answer (frame ranges of its curves), request at frame `a`, first frame
-/// of B at `a + L`, blend length `k`.
+/// of B at `a + L`, blend length `k`. Only the frames after the request are measured; the
+/// hold is context.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Phase {
     /// $[0, a]$: before and at the request (context, the same start for every system).
@@ -31,6 +35,8 @@ pub enum Phase {
 impl Phase {
     /// Every phase, in time order.
     pub const ALL: [Phase; 4] = [Phase::Hold, Phase::Reach, Phase::Blend, Phase::Settle];
+    /// The phases after the request, which are measured.
+    pub const AFTER: [Phase; 3] = [Phase::Reach, Phase::Blend, Phase::Settle];
 
     /// Lower-case name.
     pub fn name(self) -> &'static str {
@@ -60,14 +66,20 @@ pub struct Measured {
     pub from: String,
     /// Label B.
     pub to: String,
-    /// Seconds from the request to the first frame of B.
-    pub latency: f64,
+    /// Seconds from the request to the system's label switch (its first frame of B).
+    pub switch_latency: f64,
+    /// Seconds from the request to arrival as a viewer sees it ([`arrival`]); `None`: the
+    /// answer never looks like B.
+    pub perceived_latency: Option<f64>,
+    /// Whether a third label plays between the request and the label switch.
+    pub routed: bool,
     /// Largest peak vertex speed from the request on / the training p99 (a pose jump).
     pub jump: f64,
-    /// Peak acceleration from the request to the end of the blend / the training p95.
-    pub accel: f64,
-    /// Peak jerk likewise.
-    pub jerk: f64,
+    /// Peak acceleration and jerk in the fixed window around the label switch, / the
+    /// training p95s.
+    pub discontinuity: motion::Discontinuity,
+    /// Per-frame mesh speeds after the request against B's training speeds.
+    pub liveliness: liveliness::Liveliness,
     /// Plausibility of the strided frames, by phase, space and reference.
     pub plausibility: Plausibility,
     /// Peak vertex speed at offsets `-SPEED_BEFORE..=SPEED_AFTER` from the first frame of
@@ -80,13 +92,17 @@ pub const SPEED_BEFORE: i64 = 12;
 /// See [`SPEED_BEFORE`].
 pub const SPEED_AFTER: i64 = 30;
 
-/// How to measure: the blend length `k` and the plausibility stride.
+/// How to measure: the same for every system.
 #[derive(Debug, Clone, Copy)]
 pub struct Settings {
-    /// Blend length (frames).
+    /// Blend length (frames): the phases' split.
     pub k: usize,
-    /// Plausibility on every n-th frame.
+    /// Plausibility on every n-th frame after the request.
     pub stride: usize,
+    /// Frames in a row the pose must look like B for arrival ([`arrival`]).
+    pub arrival_frames: usize,
+    /// Frames of the discontinuity window around the label switch.
+    pub discontinuity_window: usize,
 }
 
 /// Measures one answered request (`None` when the answer is a refusal).
@@ -100,19 +116,28 @@ pub fn measure(
 ) -> StageResult<Option<Measured>> {
     let Some(latency) = answer.latency else { return Ok(None) };
     let m = reprise_stagekit::rig::meshes(rig, &played.controls)?;
-    let asked = answer.asked.max(0) as usize;
-    let phases = Phase::ranges(played.controls.len(), asked, latency.max(0) as usize, settings.k);
-    let motion = motion::measure(&m, training, asked, (asked as i64 + latency) as usize, settings.k);
+    let frames = played.controls.len();
+    let asked = (answer.asked.max(0) as usize).min(frames.saturating_sub(1));
+    let switch = (asked as i64 + latency).clamp(0, frames as i64) as usize;
+    let phases = Phase::ranges(frames, asked, latency.max(0) as usize, settings.k);
+    let to = training.label_index(&request.to);
+    let mut near = nearest::Cache::new(training, &played.controls, &m);
+    let arrived = to.and_then(|b| arrival::find(&mut near, asked, b, settings.arrival_frames));
+    let motion = motion::measure(&m, training, asked, switch, settings.discontinuity_window);
+    let routed =
+        played.model.get(asked + 1..switch).unwrap_or_default().iter().any(|l| *l != request.from && *l != request.to);
     Ok(Some(Measured {
         request: request.request,
         from: request.from.clone(),
         to: request.to.clone(),
-        latency: latency as f64 / training.fps,
+        switch_latency: latency as f64 / training.fps,
+        perceived_latency: arrived.map(|t| (t - asked) as f64 / training.fps),
+        routed,
         jump: motion.jump,
-        accel: motion.accel,
-        jerk: motion.jerk,
+        discontinuity: motion.discontinuity,
         speed: motion.speed,
-        plausibility: Plausibility::measure(training, &played.controls, &m, &phases, settings.stride),
+        liveliness: liveliness::measure(&m, training, to, &phases),
+        plausibility: Plausibility::measure(&mut near, &phases, settings.stride),
     }))
 }
 
@@ -140,11 +165,14 @@ mod tests {
     fn a_cut_is_a_jump_and_replayed_frames_are_plausible() {
         let (t, lf, rig) = (training(), labeled(), rig());
         let rows = |r: std::ops::Range<usize>| r.map(|i| lf.frames.row(i).to_vec()).collect::<Vec<_>>();
-        let settings = Settings { k: 3, stride: 1 };
+        let settings = Settings { k: 3, stride: 1, arrival_frames: 3, discontinuity_window: 8 };
         let cut = Played { controls: [rows(20..30), rows(30..40)].concat(), model: vec![], x: vec![] };
         let answer = Answer::reached(4, 6);
         let m = measure(&rig, &t, settings, &request(), &answer, &cut).unwrap().unwrap();
-        assert!((m.latency - 6.0 / 24.0).abs() < 1e-12);
+        assert!((m.switch_latency - 6.0 / 24.0).abs() < 1e-12);
+        // The cut lands on B's first frame, whose pose is also A's first (both start at the
+        // origin): a viewer sees B from the next frame on.
+        assert!((m.perceived_latency.unwrap() - 7.0 / 24.0).abs() < 1e-12, "{:?}", m.perceived_latency);
         assert!(m.jump > 2.0, "a cut jumps: {}", m.jump);
         assert!(m.plausibility.values(PlausibilityReference::Raw, Space::Scaled, None).iter().all(|v| *v < 1e-9));
         assert_eq!(m.plausibility.values(PlausibilityReference::Raw, Space::Mesh, Some(Phase::Blend)).len(), 3);
@@ -157,6 +185,10 @@ mod tests {
         assert!(m.jump < 2.0, "a walk does not jump: {}", m.jump);
         let mid = m.plausibility.values(PlausibilityReference::Raw, Space::Scaled, Some(Phase::Reach));
         assert!(mid.iter().any(|v| *v > 1.0), "the walk leaves the training poses: {mid:?}");
+        // The walk retraces A's own path back to the origin (A moves along c0 from 0): a
+        // viewer sees A all the way and B only once B's frames play after it.
+        let seen = m.perceived_latency.unwrap();
+        assert!((40.0 / 24.0..50.0 / 24.0).contains(&seen), "{seen}");
         assert!(measure(&rig, &t, settings, &request(), &Answer::failed("x"), &smooth).unwrap().is_none());
     }
 }

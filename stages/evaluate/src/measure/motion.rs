@@ -1,37 +1,51 @@
-//! Smoothness on the mesh: peak vertex acceleration and jerk over the whole answer, pose
-//! jumps, and the peak-speed trace around the arrival in B.
+//! Smoothness on the mesh: the discontinuity around the label switch (peak vertex
+//! acceleration and jerk in a window of the same length for every system), pose jumps, and
+//! the peak-speed trace around the switch.
 
 use reprise_motion_metrics::{peak_speeds, peaks};
 
 use super::{SPEED_AFTER, SPEED_BEFORE};
 use crate::training::Training;
 
-/// One answer's motion measures.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Motion {
-    /// max over frames $t \in [a, a + L + k)$ of the peak vertex acceleration, / the training p95.
+/// Peak acceleration and jerk in the discontinuity window, / the training p95s.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Discontinuity {
+    /// max over the window of the per-frame peak vertex acceleration / the training p95.
     pub accel: f64,
     /// Likewise for jerk.
     pub jerk: f64,
+}
+
+/// One answer's motion measures.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Motion {
+    /// Around the label switch.
+    pub discontinuity: Discontinuity,
     /// max over frames after the request of the peak vertex speed, / the training p99.
     pub jump: f64,
     /// Peak vertex speed around the first frame of B (mesh units/s; NaN outside the answer).
     pub speed: Vec<f64>,
 }
 
-/// Measures the meshes `m` (`frames × dim`) of an answer asked at frame `asked` whose first
-/// frame of B is `arrive`, blend length `k`.
-pub fn measure(m: &[f64], training: &Training, asked: usize, arrive: usize, k: usize) -> Motion {
+/// The `w` frames centred on frame `centre`, moved to lie inside `0..frames` where the
+/// answer is long enough (so every system is measured over the same length).
+pub fn window(centre: usize, w: usize, frames: usize) -> std::ops::Range<usize> {
+    let w = w.min(frames);
+    let lo = centre.saturating_sub(w / 2).min(frames - w);
+    lo..lo + w
+}
+
+/// Measures the meshes `m` (`frames × dim`) of an answer asked at frame `asked` whose label
+/// switches to B at frame `switch`, with a discontinuity window of `w` frames.
+pub fn measure(m: &[f64], training: &Training, asked: usize, switch: usize, w: usize) -> Motion {
     let dim = training.dim;
     let frames = m.len() / dim.max(1);
     let (a, j) = peaks(m, dim, training.fps);
-    let lo = asked.min(frames);
-    let hi = (arrive + k).min(frames).max(lo);
     let max = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
     let v = peak_speeds(m, dim, training.fps);
     let speed = (-SPEED_BEFORE..=SPEED_AFTER)
         .map(|o| {
-            let t = arrive as i64 + o;
+            let t = switch as i64 + o;
             if t < 1 || t as usize >= frames {
                 f64::NAN
             } else {
@@ -39,10 +53,28 @@ pub fn measure(m: &[f64], training: &Training, asked: usize, arrive: usize, k: u
             }
         })
         .collect();
+    let win = window(switch, w, frames);
     Motion {
-        accel: max(&a[lo..hi]) / training.acc95,
-        jerk: max(&j[lo..hi]) / training.jerk95,
-        jump: max(&v[(lo + 1).min(frames)..]) / training.speed99,
+        discontinuity: Discontinuity {
+            accel: max(&a[win.clone()]) / training.acc95,
+            jerk: max(&j[win]) / training.jerk95,
+        },
+        jump: max(&v[(asked + 1).min(frames)..]) / training.speed99,
         speed,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::window;
+
+    /// The window keeps its length, centred where it can be, shifted inside the answer
+    /// where it cannot, and is the whole answer when that is shorter.
+    #[test]
+    fn the_window_has_one_length() {
+        assert_eq!(window(20, 8, 40), 16..24);
+        assert_eq!(window(2, 8, 40), 0..8);
+        assert_eq!(window(39, 8, 40), 32..40);
+        assert_eq!(window(3, 8, 5), 0..5);
     }
 }

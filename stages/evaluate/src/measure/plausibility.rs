@@ -11,8 +11,8 @@
 
 use std::ops::Range;
 
+use super::nearest::Cache;
 use super::Phase;
-use crate::training::Training;
 
 /// Where a distance is measured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -73,26 +73,32 @@ pub struct Plausibility {
 }
 
 impl Plausibility {
-    /// Measures every `stride`-th frame of an answer (controls per frame, meshes
-    /// `frames × dim`) split into `phases` (as [`Phase::ranges`]).
-    pub fn measure(
-        training: &Training,
-        controls: &[Vec<f64>],
-        meshes: &[f64],
-        phases: &[Range<usize>; 4],
-        stride: usize,
-    ) -> Self {
+    /// Measures every `stride`-th frame after the request of an answer (its nearest
+    /// poses in `near`), split into `phases` (as [`Phase::ranges`]; the hold is context and
+    /// not measured).
+    pub fn measure(near: &mut Cache<'_>, phases: &[Range<usize>; 4], stride: usize) -> Self {
         let mut out = Self::default();
-        let dim = training.dim;
-        for t in (0..controls.len()).step_by(stride.max(1)) {
+        let training = near.training();
+        for t in (phases[1].start..phases[3].end).step_by(stride.max(1)) {
             let Some(phase) = phases.iter().position(|r| r.contains(&t)) else { continue };
-            let (raw, floor) = training.distances(&controls[t], &meshes[t * dim..(t + 1) * dim]);
-            for (ri, near) in [raw, floor].into_iter().enumerate() {
-                out.values[ri][0][phase].push(near.scaled / training.step);
-                out.values[ri][1][phase].push(near.mesh / training.mesh_step);
+            let (raw, floor) = near.get(t);
+            for (ri, n) in [raw, floor].into_iter().enumerate() {
+                out.values[ri][0][phase].push(n.scaled / training.step);
+                out.values[ri][1][phase].push(n.mesh / training.mesh_step);
             }
         }
         out
+    }
+
+    /// The mean distance over one phase, or over the answer after the request for `None`
+    /// (NaN without frames there): one value per request.
+    pub fn phase_mean(&self, reference: Reference, space: Space, phase: Option<Phase>) -> f64 {
+        let v = self.values(reference, space, phase);
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            v.iter().sum::<f64>() / v.len() as f64
+        }
     }
 
     /// The distances of one phase, or of the answer (reach, blend and settle) for `None`.
@@ -106,13 +112,8 @@ impl Plausibility {
         }
     }
 
-    /// The mean distance over the answer (NaN without frames).
+    /// The mean distance over the answer after the request (NaN without frames).
     pub fn mean(&self, reference: Reference, space: Space) -> f64 {
-        let v = self.values(reference, space, None);
-        if v.is_empty() {
-            f64::NAN
-        } else {
-            v.iter().sum::<f64>() / v.len() as f64
-        }
+        self.phase_mean(reference, space, None)
     }
 }

@@ -1,0 +1,71 @@
+//! The systems the transition benchmark compares.
+
+/// One system: its id in the answers artifacts and the metrics table, and how the report
+/// names it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SystemDef {
+    /// Id in `transition_answers.system` and `metrics.system`.
+    pub id: &'static str,
+    /// Name in the report.
+    pub shown: &'static str,
+    /// Whether it answers differently under another seed (it then has reseeded curves and a
+    /// variety; a system without a seed answers the same every time).
+    pub seeded: bool,
+    /// What it is, in one sentence for the report.
+    pub about: &'static str,
+}
+
+/// Every system, the method under test first: every other system is paired with it.
+pub const SYSTEMS: [SystemDef; 4] = [
+    SystemDef {
+        id: "reprise",
+        shown: "reprise",
+        seeded: true,
+        about: "one GPLVM per label, bridges between them, a particle driven by IDLE / TRANSITION commands",
+    },
+    SystemDef {
+        id: "baseline",
+        shown: "Motion Graphs",
+        seeded: true,
+        about: "Kovar, Gleicher & Pighin's graph of training frames with blended transitions, a near-shortest path",
+    },
+    SystemDef {
+        id: "motion-matching",
+        shown: "Motion matching",
+        seeded: false,
+        about: "a search of the target label's frames every search interval, inertialized",
+    },
+    SystemDef {
+        id: "crossfade",
+        shown: "Crossfade",
+        seeded: false,
+        about: "a blend from the start pose into the nearest frame of the target label",
+    },
+];
+
+/// The system with id `id`, if the benchmark knows it.
+pub fn find(id: &str) -> Option<&'static SystemDef> {
+    SYSTEMS.iter().find(|s| s.id == id)
+}
+
+/// How the report names system `id` (the id itself for a system it does not know).
+pub fn shown(id: &str) -> &str {
+    find(id).map_or(id, |s| s.shown)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ids_and_names_are_unique_and_reprise_comes_first() {
+        assert_eq!(SYSTEMS[0].id, "reprise");
+        for (i, a) in SYSTEMS.iter().enumerate() {
+            for b in &SYSTEMS[i + 1..] {
+                assert!(a.id != b.id && a.shown != b.shown, "{a:?} {b:?}");
+            }
+        }
+        assert_eq!(shown("baseline"), "Motion Graphs");
+        assert_eq!(shown("someone-else"), "someone-else");
+    }
+}

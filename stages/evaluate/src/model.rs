@@ -1,0 +1,385 @@
+//! The report's content, built once from the metric rows and the conclusions, below both
+//! renderers: [`crate::report`] writes it as Markdown, [`crate::html`] as HTML. Cells hold
+//! plain text; each renderer marks up the best cells and the names in its own way.
+
+use reprise_benchmark::metrics::{self, Direction};
+use reprise_benchmark::verdict::{find, Conclusions, Verdict};
+use reprise_benchmark::Metric;
+
+use crate::measure::{Phase, PlausibilityReference as Reference, Space};
+use crate::training::Training;
+
+/// What the report needs besides the metric rows.
+pub struct Context<'a> {
+    /// The pipeline's name.
+    pub name: &'a str,
+    /// Label order.
+    pub labels: &'a [String],
+    /// Systems compared: (id, shown name), the method under test first.
+    pub systems: &'a [(String, String)],
+    /// The training reference.
+    pub training: &'a Training,
+    /// The verdicts, computed once from the rows.
+    pub conclusions: &'a Conclusions,
+    /// Blend length (frames).
+    pub window: usize,
+    /// Coverage horizon (s).
+    pub coverage_seconds: f64,
+    /// Pose-jump threshold (× training p99 of peak vertex speed).
+    pub jump_ratio: f64,
+    /// Plausibility stride.
+    pub stride: usize,
+    /// Frames in a row that make an arrival.
+    pub arrival_frames: usize,
+    /// Frames of the discontinuity window.
+    pub discontinuity_window: usize,
+    /// Motion graph: frames kept by pruning, of all.
+    pub graph_kept: (usize, usize),
+    /// Systems answering the same under every seed (variety 0 by construction).
+    pub deterministic: Vec<String>,
+}
+
+impl Context<'_> {
+    /// The shown name of system `id`.
+    pub fn shown<'b>(&'b self, id: &'b str) -> &'b str {
+        self.systems.iter().find(|(i, _)| i == id).map_or(id, |(_, s)| s.as_str())
+    }
+}
+
+/// One table cell.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cell {
+    /// Plain text.
+    pub text: String,
+    /// The best value of its row.
+    pub best: bool,
+    /// A number (right-aligned).
+    pub numeric: bool,
+}
+
+impl Cell {
+    /// A text cell.
+    pub fn text(s: impl Into<String>) -> Self {
+        Self { text: s.into(), best: false, numeric: false }
+    }
+
+    /// A numeric cell.
+    pub fn num(s: impl Into<String>) -> Self {
+        Self { text: s.into(), best: false, numeric: true }
+    }
+}
+
+/// A table of the report.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    /// Anchor id.
+    pub id: &'static str,
+    /// Heading.
+    pub title: String,
+    /// Header cells.
+    pub head: Vec<String>,
+    /// Rows.
+    pub rows: Vec<Vec<Cell>>,
+}
+
+/// `value [ci_low, ci_high]` to 3 decimals (`–` where not measured).
+pub fn cell(m: Option<&Metric>) -> String {
+    match m {
+        Some(m) if m.n == 0 || !m.value.is_finite() => "–".into(),
+        Some(m) => match (m.ci_low, m.ci_high) {
+            (Some(lo), Some(hi)) => format!("{:.3} [{lo:.3}, {hi:.3}]", m.value),
+            _ => format!("{:.3}", m.value),
+        },
+        None => "–".into(),
+    }
+}
+
+/// `system`'s overall `metric` as a cell (a deterministic system's variety is 0 by
+/// construction: shown so, not measured).
+pub fn overall_cell(m: &[Metric], ctx: &Context<'_>, system: &str, metric: &str) -> String {
+    if metric == "variety" && ctx.deterministic.iter().any(|d| d == system) {
+        return "0 (deterministic)".into();
+    }
+    cell(find(m, system, metric, "all", "all"))
+}
+
+/// One conclusion: a headline metric's verdict in words (names are shown names).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sentence {
+    /// The metric id.
+    pub metric: &'static str,
+    /// What it measures and which way is better.
+    pub what: String,
+    /// The verdict.
+    pub verdict: Verdict,
+    /// Every system's value, best first: (shown name, cell).
+    pub values: Vec<(String, String)>,
+}
+
+/// The conclusions in words: one sentence per headline metric.
+pub fn sentences(m: &[Metric], ctx: &Context<'_>) -> Vec<Sentence> {
+    ctx.conclusions
+        .rankings
+        .iter()
+        .map(|r| {
+            let shown = |id: &str| ctx.shown(id).to_string();
+            let verdict = match &r.verdict {
+                Verdict::Best { system, clear } => Verdict::Best { system: shown(system), clear: *clear },
+                Verdict::Tie(t) => Verdict::Tie(t.iter().map(|s| shown(s)).collect()),
+                v => v.clone(),
+            };
+            let mut order: Vec<&str> = r.order.iter().map(String::as_str).collect();
+            order.extend(ctx.systems.iter().map(|(id, _)| id.as_str()).filter(|id| !r.order.iter().any(|o| o == id)));
+            Sentence {
+                metric: r.metric.id,
+                what: format!("{}; {}", r.metric.definition, r.metric.direction.phrase()),
+                verdict,
+                values: order.iter().map(|id| (shown(id), overall_cell(m, ctx, id, r.metric.id))).collect(),
+            }
+        })
+        .collect()
+}
+
+/// Per system (shown name), the headline metrics it is best or tied best on: (metric id,
+/// qualifier — empty, "tied" or "CI overlaps the runner-up").
+pub fn wins(ctx: &Context<'_>) -> Vec<(String, Vec<(&'static str, &'static str)>)> {
+    ctx.systems
+        .iter()
+        .map(|(id, shown)| {
+            let w = ctx
+                .conclusions
+                .wins(id)
+                .into_iter()
+                .map(|r| {
+                    let q = match r.verdict {
+                        Verdict::Tie(_) => "tied",
+                        Verdict::Best { clear: false, .. } => "CI overlaps the runner-up",
+                        _ => "",
+                    };
+                    (r.metric.id, q)
+                })
+                .collect();
+            (shown.clone(), w)
+        })
+        .collect()
+}
+
+/// Notes that qualify the conclusions: where the paired table disagrees with a clear
+/// verdict, the share of starts on bridge points, and how often each system routes.
+pub fn notes(m: &[Metric], ctx: &Context<'_>) -> Vec<String> {
+    let mut out = Vec::new();
+    for d in ctx.conclusions.disagreements(m) {
+        out.push(format!(
+            "`{}`: {} is best over all its answers, but on the requests both answered {} is ahead ({} − {} = {}).",
+            d.metric,
+            ctx.shown(&d.best),
+            ctx.shown(&d.other),
+            ctx.shown(d.paired.system.split(" vs ").next().unwrap_or("")),
+            ctx.shown(d.paired.system.split(" vs ").nth(1).unwrap_or("")),
+            cell(Some(&d.paired))
+        ));
+    }
+    if let Some(s) = find(m, "requests", "start_on_bridge", "all", "all").filter(|s| s.n > 0) {
+        out.push(format!(
+            "{:.0} % of the requests start on a bridge point of their pair (reprise can leave there with no travel); every \
+             system is asked the same requests.",
+            100.0 * s.value
+        ));
+    }
+    let routed: Vec<String> = ctx
+        .systems
+        .iter()
+        .filter_map(|(id, shown)| {
+            let r = find(m, id, "routed", "all", "all").filter(|r| r.n > 0)?;
+            let lat = |name| cell(find(m, id, name, "all", "all"));
+            Some(format!(
+                "{shown} {:.0} % (perceived latency direct {}, routed {})",
+                100.0 * r.value,
+                lat("latency_direct_s"),
+                lat("latency_routed_s")
+            ))
+        })
+        .collect();
+    if !routed.is_empty() {
+        out.push(format!("Answers routed through a third label: {}.", routed.join("; ")));
+    }
+    out
+}
+
+fn system_head(first: &[&str], ctx: &Context<'_>) -> Vec<String> {
+    let mut h: Vec<String> = first.iter().map(|s| s.to_string()).collect();
+    h.extend(ctx.systems.iter().map(|(_, n)| n.clone()));
+    h
+}
+
+/// The overall table: every headline metric, every system, the best marked.
+pub fn overall(m: &[Metric], ctx: &Context<'_>) -> Table {
+    let mut head = system_head(&["metric"], ctx);
+    head.push("best".into());
+    let rows = ctx
+        .conclusions
+        .rankings
+        .iter()
+        .map(|r| {
+            let mut row = vec![Cell::text(format!("`{}`", r.metric.id))];
+            for (id, _) in ctx.systems {
+                let best = r.won_by(id) && !matches!(r.verdict, Verdict::NotRanked(_));
+                row.push(Cell { best, ..Cell::num(overall_cell(m, ctx, id, r.metric.id)) });
+            }
+            row.push(Cell::text(match &r.verdict {
+                Verdict::Best { system, clear: true } => ctx.shown(system).to_string(),
+                Verdict::Best { system, clear: false } => format!("{} (CIs overlap)", ctx.shown(system)),
+                Verdict::Tie(t) => format!("tie: {}", t.iter().map(|s| ctx.shown(s)).collect::<Vec<_>>().join(", ")),
+                Verdict::NotRanked(why) => format!("not ranked: {why}"),
+            }));
+            row
+        })
+        .collect();
+    Table {
+        id: "overall",
+        title: "Overall (all label pairs; mean [95 % bootstrap CI] over requests)".into(),
+        head,
+        rows,
+    }
+}
+
+/// Latency as the system labels it and as a viewer sees it, and split by route.
+pub fn latency(m: &[Metric], ctx: &Context<'_>) -> Table {
+    let head = system_head(&["metric", "over"], ctx);
+    let rows = ["perceived_latency_s", "switch_latency_s", "latency_direct_s", "latency_routed_s", "routed"]
+        .iter()
+        .map(|id| {
+            let over = match metrics::find(id).map(|d| d.per) {
+                Some(metrics::Per::Arrived) => "requests that arrived",
+                _ => "answered requests",
+            };
+            let mut row = vec![Cell::text(format!("`{id}`")), Cell::text(over)];
+            row.extend(ctx.systems.iter().map(|(s, _)| Cell::num(cell(find(m, s, id, "all", "all")))));
+            row
+        })
+        .collect();
+    Table {
+        id: "latency",
+        title: "Latency: perceived, by label switch, and by route (s; mean [95 % CI])".into(),
+        head,
+        rows,
+    }
+}
+
+/// A family of per-phase metrics: one row per (name, phase) with every system's value; the
+/// best of each row marked by `direction`.
+fn phase_rows(m: &[Metric], ctx: &Context<'_>, names: &[(String, Vec<String>)]) -> Vec<Vec<Cell>> {
+    let mut rows = Vec::new();
+    for (id, labels) in names {
+        let direction = metrics::direction_of(id);
+        let vals: Vec<Option<&Metric>> =
+            ctx.systems.iter().map(|(s, _)| find(m, s, id, "all", "all").filter(|x| x.n > 0)).collect();
+        let best = vals
+            .iter()
+            .filter_map(|v| direction.badness(v.as_ref()?.value))
+            .filter(|b| b.is_finite())
+            .fold(f64::INFINITY, f64::min);
+        let mut row: Vec<Cell> = labels.iter().map(Cell::text).collect();
+        for v in vals {
+            let is_best = v.and_then(|x| direction.badness(x.value)).is_some_and(|b| b == best);
+            row.push(Cell { best: is_best && !matches!(direction, Direction::NotRanked(_)), ..Cell::num(cell(v)) });
+        }
+        rows.push(row);
+    }
+    rows
+}
+
+/// Liveliness by phase.
+pub fn liveliness(m: &[Metric], ctx: &Context<'_>) -> Table {
+    let mut names = Vec::new();
+    for measure in ["ratio", "ks"] {
+        for phase in Phase::AFTER.into_iter().map(Some).chain(std::iter::once(None)) {
+            let id = crate::aggregate::liveliness_name(measure, phase);
+            names.push((id, vec![measure.to_string(), phase.map_or("after the request", Phase::name).to_string()]));
+        }
+    }
+    Table {
+        id: "liveliness",
+        title: "Liveliness by phase (ratio: closer to 1 is better; KS: lower is better)".into(),
+        head: system_head(&["measure", "phase"], ctx),
+        rows: phase_rows(m, ctx, &names),
+    }
+}
+
+/// Plausibility by phase.
+pub fn plausibility(m: &[Metric], ctx: &Context<'_>) -> Table {
+    let mut names = Vec::new();
+    for r in Reference::ALL {
+        for sp in Space::ALL {
+            for phase in Phase::AFTER.into_iter().map(Some).chain(std::iter::once(None)) {
+                let id = crate::measure::plausibility::metric_name(r, sp, phase);
+                let labels =
+                    vec![r.name().into(), sp.name().into(), phase.map_or("after the request", Phase::name).into()];
+                names.push((id, labels));
+            }
+        }
+    }
+    Table {
+        id: "phases",
+        title: "Plausibility by phase (lower is closer to training poses; mean [95 % CI] over requests)".into(),
+        head: system_head(&["reference", "space", "phase"], ctx),
+        rows: phase_rows(m, ctx, &names),
+    }
+}
+
+/// Paired differences of the method under test against every other system.
+pub fn paired(m: &[Metric], ctx: &Context<'_>) -> Table {
+    let head = ["against", "metric", "difference [95 % CI]", "n", "favours"].map(String::from).to_vec();
+    let mut rows = Vec::new();
+    if let Some((ours, ours_shown)) = ctx.systems.first() {
+        for (id, shown) in ctx.systems.iter().skip(1) {
+            for name in crate::aggregate::PAIRED {
+                let Some(d) = find(m, &format!("{ours} vs {id}"), &format!("paired_{name}"), "all", "all") else {
+                    continue;
+                };
+                let lower_better = !matches!(metrics::direction_of(name), Direction::Higher);
+                let side = match (d.ci_low, d.ci_high) {
+                    (_, Some(hi)) if hi < 0.0 => if lower_better { ours_shown } else { shown }.to_string(),
+                    (Some(lo), _) if lo > 0.0 => if lower_better { shown } else { ours_shown }.to_string(),
+                    _ => "neither (CI spans 0)".into(),
+                };
+                rows.push(vec![
+                    Cell::text(shown),
+                    Cell::text(format!("`{name}` ({})", d.unit)),
+                    Cell::num(cell(Some(d))),
+                    Cell::num(d.n.to_string()),
+                    Cell::text(side),
+                ]);
+            }
+        }
+    }
+    let title = format!(
+        "Paired, on the requests both systems answered ({} − other; mean [95 % CI])",
+        ctx.systems.first().map_or("", |s| s.1.as_str())
+    );
+    Table { id: "paired", title, head, rows }
+}
+
+/// Held-out model quality and the scaling ablation, per label.
+pub fn quality(m: &[Metric], ctx: &Context<'_>) -> Table {
+    let cols: [(&str, &str, &str); 4] = [
+        ("held-out GPLVM", "gplvm", "heldout_mesh_rmse"),
+        ("held-out PCA (q)", "pca", "heldout_mesh_rmse"),
+        ("PCA d = 3, scaled", "scaled", "ablation_mesh_rmse"),
+        ("PCA d = 3, unscaled", "unscaled", "ablation_mesh_rmse"),
+    ];
+    let mut head = vec!["label".to_string()];
+    head.extend(cols.iter().map(|c| c.0.to_string()));
+    let rows = ctx
+        .labels
+        .iter()
+        .map(|l| {
+            let mut row = vec![Cell::text(l)];
+            row.extend(cols.iter().map(|&(_, sys, name)| {
+                Cell::num(find(m, sys, name, l, "").map_or("–".to_string(), |x| format!("{:.4}", x.value)))
+            }));
+            row
+        })
+        .collect();
+    Table { id: "quality", title: "Model quality (RMS vertex error, mesh units)".into(), head, rows }
+}
