@@ -8,7 +8,9 @@
 
 use rayon::prelude::*;
 use reprise_artifact::frames::LabeledFrames;
-use reprise_motion_metrics::{nearest_k, peak_speeds, peaks, quantile, rms_speeds};
+use reprise_motion_metrics::{
+    nearest_k, peak_speeds, peaks, quantile, rms_speeds, squared_distance, squared_distance_f32,
+};
 use reprise_numerics::gplvm::RigMap;
 use reprise_stagekit::rig::{mesh_rmse, meshes};
 use reprise_stagekit::{StageError, StageResult};
@@ -90,8 +92,18 @@ impl Reference {
     pub fn nearest(&self, z: &[f64], y: &[f64], m: &[f64]) -> Nearest {
         let near = self.candidates(z, y);
         let scaled = near.first().map_or(f64::INFINITY, |n| n.0);
-        let best = near.iter().map(|&(_, i)| (i, self.mesh_distance(i, m))).min_by(|a, b| a.1.total_cmp(&b.1));
-        Nearest { scaled, mesh: best.map_or(f64::INFINITY, |b| b.1), row: best.map(|b| b.0) }
+        // Candidates come nearest in scaled space first, which is built to approximate the
+        // mesh distance: the best on the mesh is usually among the first, and every later
+        // one stops summing once it is past it.
+        let mut best: Option<(usize, f64)> = None;
+        for &(_, i) in &near {
+            let limit = best.map_or(f64::INFINITY, |b| b.1);
+            if let Some(sq) = self.mesh_sq_distance_below(i, m, limit) {
+                best = Some((i, sq));
+            }
+        }
+        let rms = |sq: f64| (sq / (m.len() / 3).max(1) as f64).sqrt();
+        Nearest { scaled, mesh: best.map_or(f64::INFINITY, |b| rms(b.1)), row: best.map(|b| b.0) }
     }
 
     /// The mesh-nearest of the [`MESH_CANDIDATES`] scaled-space nearest rows (the pose the
@@ -111,26 +123,63 @@ impl Reference {
         if r == 0 {
             return nearest_k(z, &self.z, c, MESH_CANDIDATES);
         }
-        let mut bound = nearest_k(y, &self.reduced, r, usize::MAX);
+        let order = |a: &(f64, usize), b: &(f64, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+        // Squared lower bounds of every row; only as many as the visit needs get sorted: a
+        // first batch, then the rest if the batch ran out before the bound passed the k-th.
+        let mut bound: Vec<(f64, usize)> = self
+            .reduced
+            .chunks_exact(r)
+            .enumerate()
+            .map(|(i, row)| (squared_distance(row, y), i))
+            .collect();
+        let batch = (8 * MESH_CANDIDATES).min(bound.len());
+        if batch < bound.len() {
+            bound.select_nth_unstable_by(batch, order);
+        }
+        bound[..batch].sort_unstable_by(order);
         let mut best: Vec<(f64, usize)> = Vec::with_capacity(MESH_CANDIDATES + 1);
-        for (lb, i) in bound.drain(..) {
-            if best.len() == MESH_CANDIDATES && lb > best[MESH_CANDIDATES - 1].0 {
-                break;
+        let mut visit = |(lb, i): (f64, usize), best: &mut Vec<(f64, usize)>| -> bool {
+            if best.len() == MESH_CANDIDATES && lb.sqrt() > best[MESH_CANDIDATES - 1].0 {
+                return false;
             }
-            let d = self.z[i * c..(i + 1) * c].iter().zip(z).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+            let d = squared_distance(&self.z[i * c..(i + 1) * c], z).sqrt();
             let at = best.partition_point(|&(e, j)| (e, j) < (d, i));
             best.insert(at, (d, i));
             best.truncate(MESH_CANDIDATES);
+            true
+        };
+        let mut done = false;
+        for &b in &bound[..batch] {
+            if !visit(b, &mut best) {
+                done = true;
+                break;
+            }
+        }
+        if !done {
+            let rest = &mut bound[batch..];
+            rest.sort_unstable_by(order);
+            for &b in rest.iter() {
+                if !visit(b, &mut best) {
+                    break;
+                }
+            }
         }
         best
     }
 
-    /// RMS vertex distance (mesh units) between row `i`'s mesh and `m`.
-    fn mesh_distance(&self, i: usize, m: &[f64]) -> f64 {
+    /// The squared vertex distance $\sum (r_i - m)^2$ between row `i`'s mesh and `m`, or
+    /// `None` as soon as the partial sum reaches `limit` (it cannot be below it).
+    fn mesh_sq_distance_below(&self, i: usize, m: &[f64], limit: f64) -> Option<f64> {
         let dim = m.len();
         let r = &self.mesh[i * dim..(i + 1) * dim];
-        let sq: f64 = r.iter().zip(m).map(|(a, b)| (f64::from(*a) - b).powi(2)).sum();
-        (sq / (dim / 3).max(1) as f64).sqrt()
+        let mut sq = 0.0;
+        for (a, b) in r.chunks(512).zip(m.chunks(512)) {
+            sq += squared_distance_f32(a, b);
+            if sq >= limit {
+                return None;
+            }
+        }
+        Some(sq)
     }
 }
 
