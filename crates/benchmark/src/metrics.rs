@@ -239,7 +239,7 @@ pub const CATALOGUE: &[MetricDef] = &[
         "liveliness_",
         "× B's training mean",
         Direction::TowardOne,
-        "liveliness_<ratio|ks>_<phase>: the liveliness measures over one phase",
+        "liveliness_ratio_<phase> and liveliness_ks_<phase>: the liveliness measures over one phase",
     ),
     family(
         "paired_",
@@ -294,6 +294,28 @@ pub fn direction_of(id: &str) -> Direction {
     } else {
         direction(id)
     }
+}
+
+/// The catalogue as a Markdown table (id, unit, over what, better, definition): the
+/// metrics reference in `docs/metrics.md` and the report's definitions are this text.
+pub fn reference_table() -> String {
+    let mut s = String::from("| metric | unit | mean over | better | definition |\n|---|---|---|---|---|\n");
+    for d in CATALOGUE {
+        let name = if d.family { format!("`{}…`", d.id) } else { format!("`{}`", d.id) };
+        let per = match d.per {
+            Per::Request => "every request (a share)",
+            Per::Answered => "answered requests",
+            Per::Arrived => "requests that arrived",
+            Per::Count => "label or label pair",
+        };
+        let better = match d.direction {
+            Direction::NotRanked(why) => format!("not ranked: {why}"),
+            other => other.phrase().to_string(),
+        };
+        let headline = if d.headline { " **(headline)**" } else { "" };
+        s += &format!("| {name}{headline} | {} | {per} | {better} | {} |\n", d.unit, d.definition);
+    }
+    s
 }
 
 impl Direction {
@@ -353,6 +375,29 @@ mod tests {
         assert_eq!(unranked, ["variety"]);
         for id in ["perceived_latency_s", "answered", "coverage", "discontinuity_accel", "liveliness_ks"] {
             assert!(find(id).unwrap().headline, "{id}");
+        }
+    }
+
+    /// `docs/metrics.md` holds the catalogue as [`reference_table`] renders it; set
+    /// `REPRISE_BLESS=1` to rewrite it after changing the catalogue.
+    #[test]
+    fn the_metrics_reference_is_the_catalogue() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/metrics.md");
+        let doc = std::fs::read_to_string(&path).unwrap_or_default();
+        let (start, end) = ("<!-- catalogue: generated -->\n", "<!-- end of catalogue -->");
+        let table = reference_table();
+        let fresh = match (doc.find(start), doc.find(end)) {
+            (Some(a), Some(b)) if a < b => format!("{}{start}{table}{}", &doc[..a], &doc[b..]),
+            _ => doc.clone(),
+        };
+        if std::env::var_os("REPRISE_BLESS").is_some() {
+            std::fs::write(&path, &fresh).unwrap();
+        } else {
+            assert!(
+                doc.contains(&table),
+                "{} is stale: run REPRISE_BLESS=1 cargo test -p reprise-benchmark",
+                path.display()
+            );
         }
     }
 

@@ -166,11 +166,8 @@ pub fn nearest_distance(x: &[f64], set: &[f64], dim: usize) -> f64 {
 
 /// The `k` rows of `set` (`rows × dim`) nearest to `x`: (distance, row), nearest first.
 pub fn nearest_k(x: &[f64], set: &[f64], dim: usize, k: usize) -> Vec<(f64, usize)> {
-    let mut d: Vec<(f64, usize)> = set
-        .chunks_exact(dim.max(1))
-        .enumerate()
-        .map(|(i, r)| (r.iter().zip(x).map(|(a, b)| (a - b) * (a - b)).sum::<f64>(), i))
-        .collect();
+    let mut d: Vec<(f64, usize)> =
+        set.chunks_exact(dim.max(1)).enumerate().map(|(i, r)| (squared_distance(r, x), i)).collect();
     let order = |a: &(f64, usize), b: &(f64, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
     let k = k.min(d.len());
     if k < d.len() {

@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use reprise_benchmark::metrics::{self, Direction};
+use reprise_benchmark::metrics;
 use reprise_benchmark::verdict::Verdict;
 
 use crate::aggregate::Metric;
@@ -153,14 +153,7 @@ fn definitions(s: &mut String, ctx: &Context<'_>) {
          resamples requests.\n",
         k = ctx.window
     );
-    for d in metrics::CATALOGUE {
-        let dir = match d.direction {
-            Direction::NotRanked(why) => format!("not ranked: {why}"),
-            other => other.phrase().to_string(),
-        };
-        let name = if d.family { format!("{}…", d.id) } else { d.id.to_string() };
-        let _ = writeln!(s, "- `{name}` ({}; {dir}): {}.", d.unit, d.definition);
-    }
+    s.push_str(&metrics::reference_table());
     let _ = writeln!(
         s,
         "\nSettings and reference values: arrival needs h = {h} B-like frames in a row; the coverage horizon is T = {cs} s; \

@@ -126,12 +126,8 @@ impl Reference {
         let order = |a: &(f64, usize), b: &(f64, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
         // Squared lower bounds of every row; only as many as the visit needs get sorted: a
         // first batch, then the rest if the batch ran out before the bound passed the k-th.
-        let mut bound: Vec<(f64, usize)> = self
-            .reduced
-            .chunks_exact(r)
-            .enumerate()
-            .map(|(i, row)| (squared_distance(row, y), i))
-            .collect();
+        let mut bound: Vec<(f64, usize)> =
+            self.reduced.chunks_exact(r).enumerate().map(|(i, row)| (squared_distance(row, y), i)).collect();
         let batch = (8 * MESH_CANDIDATES).min(bound.len());
         if batch < bound.len() {
             bound.select_nth_unstable_by(batch, order);
