@@ -134,7 +134,7 @@ impl Reference {
         }
         bound[..batch].sort_unstable_by(order);
         let mut best: Vec<(f64, usize)> = Vec::with_capacity(MESH_CANDIDATES + 1);
-        let mut visit = |(lb, i): (f64, usize), best: &mut Vec<(f64, usize)>| -> bool {
+        let visit = |(lb, i): (f64, usize), best: &mut Vec<(f64, usize)>| -> bool {
             if best.len() == MESH_CANDIDATES && lb.sqrt() > best[MESH_CANDIDATES - 1].0 {
                 return false;
             }
