@@ -48,7 +48,7 @@ use systems::System;
 use training::Training;
 
 /// Kind of the metrics table.
-pub const METRICS: Kind = Kind { name: "metrics", version: 2 };
+pub const METRICS: Kind = Kind { name: "metrics", version: 3 };
 
 /// `reprise-evaluate`: metrics and the report.
 #[derive(Debug, Clone, Parser, Serialize)]
@@ -538,6 +538,27 @@ fn model_quality(fits_path: &Path, errors_path: &Path) -> StageResult<Vec<Metric
         }
     }
     Ok(out)
+}
+
+/// Reads a metrics table (`metrics.parquet`) as written by this stage.
+pub fn read_metrics(path: &Path) -> StageResult<Vec<Metric>> {
+    let t = Table::read(path, METRICS)?;
+    let (system, metric, from, to) = (t.strings("system")?, t.strings("metric")?, t.strings("from")?, t.strings("to")?);
+    let (value, lo, hi, n, unit) =
+        (t.f64("value")?, t.f64_opt("ci_low")?, t.f64_opt("ci_high")?, t.i64("n")?, t.strings("unit")?);
+    Ok((0..t.rows())
+        .map(|r| Metric {
+            system: system[r].clone(),
+            metric: metric[r].clone(),
+            from: from[r].clone(),
+            to: to[r].clone(),
+            value: value[r],
+            ci_low: lo[r],
+            ci_high: hi[r],
+            n: n[r],
+            unit: unit[r].clone(),
+        })
+        .collect())
 }
 
 fn write_metrics(path: &Path, m: &[Metric], provenance: &reprise_artifact::Provenance) -> StageResult<()> {

@@ -6,6 +6,10 @@
 //!
 //! Run from the repository root after `cargo build --release`:
 //! `target/release/reprise-bench`.
+//!
+//! `target/release/reprise-bench --verdicts-seed 8` instead runs the default pipeline on the
+//! corpus of `pipeline.toml` and on the corpus generated with seed 8, and lists, per headline
+//! metric, the verdict of each and whether it survives.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -24,6 +28,10 @@ struct Args {
     /// Minutes of animation for the large-ingest benchmark.
     #[arg(long, default_value_t = 20.0)]
     minutes: f64,
+    /// Instead of the benchmarks: rerun the default pipeline on the dragon-face corpus of
+    /// this generator seed and list which of the default run's verdicts survive.
+    #[arg(long, value_name = "SEED")]
+    verdicts_seed: Option<u64>,
 }
 
 fn main() {
@@ -41,6 +49,9 @@ fn bin(name: &str) -> PathBuf {
 }
 
 fn bench(args: &Args) -> Result<()> {
+    if let Some(seed) = args.verdicts_seed {
+        return verdicts(args, seed);
+    }
     let dir = tempfile::tempdir()?;
     println!("# reprise benchmarks\n");
     println!("{} logical CPUs; every number below is from this run\n", num_cpus());
@@ -125,6 +136,79 @@ fn film_scale(args: &Args, dir: &Path) -> Result<()> {
         frames.frames.controls.len()
     );
     print_stages(&lock, first, again);
+    Ok(())
+}
+
+/// The default pipeline on the shipped corpus and on the corpus of `seed` (rig and takes
+/// both generated from it, the labels file the generator writes for it), each in a scratch
+/// directory; prints each headline metric's verdict on both and whether it survives.
+fn verdicts(args: &Args, seed: u64) -> Result<()> {
+    use reprise_benchmark::verdict::Verdict;
+    let toml = std::fs::read_to_string(args.repo.join("pipeline.toml"))?;
+    let shipped = std::fs::read_to_string(args.repo.join("datasets/dragon-face/labels.toml"))?;
+    let Some(base) =
+        toml.lines().find_map(|l| l.trim().strip_prefix("seed = ").and_then(|v| v.trim().parse::<u64>().ok()))
+    else {
+        return Err("pipeline.toml has no `seed = N` line for the corpus".into());
+    };
+    let other = reprise_dragon_face::labels_toml(&reprise_dragon_face::generate_corpus_scaled(
+        &reprise_dragon_face::DragonRig::new(seed),
+        seed,
+        1.0,
+    ));
+    let runs = [
+        (base, toml.clone(), shipped),
+        (seed, toml.replacen(&format!("seed = {base}\n"), &format!("seed = {seed}\n"), 1), other),
+    ];
+    let mut conclusions = Vec::new();
+    for (s, toml, labels) in runs {
+        let dir = tempfile::tempdir()?;
+        let script = std::fs::read_to_string(args.repo.join("datasets/dragon-face/scripts/demo.toml"))?;
+        std::fs::create_dir_all(dir.path().join("datasets/dragon-face/scripts"))?;
+        std::fs::write(dir.path().join("datasets/dragon-face/scripts/demo.toml"), script)?;
+        eprintln!("reprise-bench: the default pipeline on corpus seed {s} …");
+        run_pipeline(dir.path(), &toml, &labels)?;
+        let rows = reprise_evaluate::read_metrics(&dir.path().join("reports/dragon-face/metrics.parquet"))?;
+        let systems: Vec<&str> = reprise_benchmark::systems::SYSTEMS.iter().map(|d| d.id).collect();
+        conclusions.push((s, reprise_benchmark::Conclusions::new(&rows, &systems)));
+    }
+    let words = |v: &Verdict| match v {
+        Verdict::Best { system, clear } => {
+            format!("{}{}", reprise_benchmark::systems::shown(system), if *clear { "" } else { " (CIs overlap)" })
+        }
+        Verdict::Tie(t) => {
+            format!("tie: {}", t.iter().map(|s| reprise_benchmark::systems::shown(s)).collect::<Vec<_>>().join(", "))
+        }
+        Verdict::NotRanked(_) => "not ranked".into(),
+    };
+    let winners = |v: &Verdict| match v {
+        Verdict::Best { system, .. } => vec![system.clone()],
+        Verdict::Tie(t) => t.clone(),
+        Verdict::NotRanked(_) => vec![],
+    };
+    let ((a, first), (b, second)) = (&conclusions[0], &conclusions[1]);
+    println!("## Verdicts on corpus seed {a} and seed {b}\n");
+    println!("| metric | seed {a} | seed {b} | survives |\n|---|---|---|---|");
+    let mut kept = 0;
+    for (x, y) in first.rankings.iter().zip(&second.rankings) {
+        let survives = winners(&x.verdict) == winners(&y.verdict);
+        kept += usize::from(survives && !winners(&x.verdict).is_empty());
+        println!(
+            "| `{}` | {} | {} | {} |",
+            x.metric.id,
+            words(&x.verdict),
+            words(&y.verdict),
+            if winners(&x.verdict).is_empty() {
+                "–"
+            } else if survives {
+                "yes"
+            } else {
+                "**no**"
+            }
+        );
+    }
+    let ranked = first.rankings.iter().filter(|r| !winners(&r.verdict).is_empty()).count();
+    println!("\n{kept} of {ranked} ranked verdicts survive (the same best system, or the same tie).");
     Ok(())
 }
 
