@@ -207,6 +207,20 @@ pub const CATALOGUE: &[MetricDef] = &[
         "perceived latency of the answers routed through a third label",
     ),
     row(
+        "latency_bridge_start_s",
+        "s",
+        Direction::NotRanked("a subset of the requests; perceived_latency_s ranks them all"),
+        Per::Arrived,
+        "perceived latency of the requests whose start frame is a bridge point of their pair (see start_on_bridge)",
+    ),
+    row(
+        "latency_other_start_s",
+        "s",
+        Direction::NotRanked("a subset of the requests; perceived_latency_s ranks them all"),
+        Per::Arrived,
+        "perceived latency of the requests whose start frame is not a bridge point of their pair",
+    ),
+    row(
         "routed",
         "share",
         Direction::NotRanked("how a system gets there, not how well"),

@@ -164,12 +164,15 @@ pub struct Rules<'a> {
     pub jump_ratio: f64,
     /// Coverage horizon (s).
     pub horizon: f64,
+    /// The requests whose start frame is a bridge point of their pair.
+    pub on_bridge: &'a HashSet<i64>,
 }
 
 /// One system's rows: each per-request measure over its answered requests (one value per
 /// request), and over every request the shares `answered` (the system's own label
 /// switch), `arrived` (a viewer sees B), `coverage` (arrived within the horizon) and
-/// `success` (answered with no pose jump).
+/// `success` (answered with no pose jump); and perceived latency split by whether the
+/// request starts on a bridge point.
 pub fn system_rows(system: &System, measured: &[Measured], rules: Rules<'_>) -> Vec<Metric> {
     let mut out = Vec::new();
     let measures = per_request();
@@ -193,6 +196,14 @@ pub fn system_rows(system: &System, measured: &[Measured], rules: Rules<'_>) -> 
         ];
         for (name, f) in shares {
             out.push(metric(&system.id, name, &g.0, &g.1, &share(f, g), "share", seed));
+        }
+        for (name, on) in [("latency_bridge_start_s", true), ("latency_other_start_s", false)] {
+            let v: Vec<f64> = here
+                .iter()
+                .filter(|p| rules.on_bridge.contains(&p.request) == on)
+                .filter_map(|p| p.perceived_latency)
+                .collect();
+            out.push(metric(&system.id, name, &g.0, &g.1, &v, "s", seed));
         }
     }
     out
@@ -310,7 +321,8 @@ mod tests {
         let theirs_m = [(0, "b", Some(0.2)), (2, "b", Some(0.9)), (4, "a", Some(0.2)), (5, "a", Some(1.0))]
             .map(|(r, to, l)| measured(r, to, l, 1.0));
         let pairs = vec![("a".to_string(), "b".to_string()), ("b".to_string(), "a".to_string())];
-        let rules = Rules { requests: &reqs, pairs: &pairs, jump_ratio: 2.0, horizon: 1.0 };
+        let on_bridge: HashSet<i64> = [0, 4].into();
+        let rules = Rules { requests: &reqs, pairs: &pairs, jump_ratio: 2.0, horizon: 1.0, on_bridge: &on_bridge };
         let m: Vec<Metric> = [(&ours, &ours_m[..]), (&theirs, &theirs_m[..])]
             .iter()
             .flat_map(|(s, per)| system_rows(s, per, rules))
@@ -327,6 +339,9 @@ mod tests {
         let lat = m.iter().find(|r| r.system == "x" && r.metric == "perceived_latency_s" && r.from == "all").unwrap();
         assert_eq!(lat.n, 5);
         assert!((lat.value - (0.4 + 1.0 + 1.25 + 0.1 + 1.1) / 5.0).abs() < 1e-12);
+        // Split by start: requests 0 and 4 start on bridge points.
+        assert!((value_of(&m, "x", "latency_bridge_start_s", "all", "all") - (0.4 + 1.1) / 2.0).abs() < 1e-12);
+        assert!((value_of(&m, "x", "latency_other_start_s", "all", "all") - (1.0 + 1.25 + 0.1) / 3.0).abs() < 1e-12);
         // Every measured answer is jump-free here; unanswered requests do not succeed.
         assert_eq!(value_of(&m, "y", "success", "all", "all"), 4.0 / 6.0);
     }

@@ -322,7 +322,10 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         arrival_frames: args.arrival_frames,
         discontinuity_window: args.discontinuity_window,
     };
+    let links = bridges::read(&args.bridges)?;
+    let on_bridge = starts_on_bridges(&reqs, &links, &gplvm::read_latents(&args.latents)?);
     let rules = aggregate::Rules {
+        on_bridge: &on_bridge,
         requests: &reqs,
         pairs: &pairs,
         jump_ratio: args.jump_ratio,
@@ -342,8 +345,6 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         }
     }
     out.extend(varieties);
-    let links = bridges::read(&args.bridges)?;
-    let on_bridge = starts_on_bridges(&reqs, &links, &gplvm::read_latents(&args.latents)?);
     out.extend(aggregate::start_rows(&reqs, &pairs, &on_bridge));
     let mg = motion_graph::read_graph(&args.mg_nodes, &args.mg_edges)?;
     mg.check_window(args.window, "--window")?;
@@ -619,3 +620,50 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         partition: wiring::Partition::Whole,
     }
 };
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A start is on a bridge point when its frame is the `from_point` (the label's latent
+    /// row, counted within the label) of a bridge of the same ordered pair.
+    #[test]
+    fn starts_on_bridge_points_are_found_by_pair_and_row() {
+        // Label `a` has rows (segment 0, frames 0–2) then `b` (segment 1, frame 0), then
+        // `a` again (segment 2, frame 5): a's rows are 0, 1, 2, 3.
+        let latents = gplvm::Latents {
+            label: ["a", "a", "a", "b", "a"].map(String::from).to_vec(),
+            segment_id: vec![0, 0, 0, 1, 2],
+            clip: vec!["c".into(); 5],
+            frame: vec![0, 1, 2, 0, 5],
+            time: vec![0.0; 5],
+            x: vec![vec![0.0]; 5],
+        };
+        let bridge = |from: &str, to: &str, from_point: i64| bridges::Bridge {
+            from: from.into(),
+            to: to.into(),
+            from_point,
+            x1: vec![0.0],
+            x2: vec![0.0],
+            rig_distance: 0.0,
+            mesh_distance: None,
+            rank: 1,
+        };
+        let links = vec![bridge("a", "b", 1), bridge("a", "b", 3), bridge("a", "c", 2)];
+        let request = |id: i64, to: &str, segment_id: i64, frame: i64| Request {
+            request: id,
+            from: "a".into(),
+            to: to.into(),
+            segment_id,
+            clip: "c".into(),
+            frame,
+        };
+        let reqs = vec![request(0, "b", 0, 1), request(1, "b", 0, 2), request(2, "c", 0, 1), request(3, "b", 2, 5)];
+        let on: Vec<i64> = {
+            let mut v: Vec<i64> = starts_on_bridges(&reqs, &links, &latents).into_iter().collect();
+            v.sort_unstable();
+            v
+        };
+        assert_eq!(on, vec![0, 3]);
+    }
+}

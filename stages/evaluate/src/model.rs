@@ -246,18 +246,26 @@ pub fn overall(m: &[Metric], ctx: &Context<'_>) -> Table {
 /// Latency as the system labels it and as a viewer sees it, and split by route.
 pub fn latency(m: &[Metric], ctx: &Context<'_>) -> Table {
     let head = system_head(&["metric", "over"], ctx);
-    let rows = ["perceived_latency_s", "switch_latency_s", "latency_direct_s", "latency_routed_s", "routed"]
-        .iter()
-        .map(|id| {
-            let over = match metrics::find(id).map(|d| d.per) {
-                Some(metrics::Per::Arrived) => "requests that arrived",
-                _ => "answered requests",
-            };
-            let mut row = vec![Cell::text(format!("`{id}`")), Cell::text(over)];
-            row.extend(ctx.systems.iter().map(|(s, _)| Cell::num(cell(find(m, s, id, "all", "all")))));
-            row
-        })
-        .collect();
+    let rows = [
+        "perceived_latency_s",
+        "switch_latency_s",
+        "latency_direct_s",
+        "latency_routed_s",
+        "routed",
+        "latency_bridge_start_s",
+        "latency_other_start_s",
+    ]
+    .iter()
+    .map(|id| {
+        let over = match metrics::find(id).map(|d| d.per) {
+            Some(metrics::Per::Arrived) => "requests that arrived",
+            _ => "answered requests",
+        };
+        let mut row = vec![Cell::text(format!("`{id}`")), Cell::text(over)];
+        row.extend(ctx.systems.iter().map(|(s, _)| Cell::num(cell(find(m, s, id, "all", "all")))));
+        row
+    })
+    .collect();
     Table {
         id: "latency",
         title: "Latency: perceived, by label switch, and by route (s; mean [95 % CI])".into(),

@@ -174,7 +174,8 @@ fn run() -> Run {
     let reqs = requests();
     let pairs = vec![("a".to_string(), "b".to_string()), ("b".to_string(), "a".to_string())];
     let settings = Settings { k: K, stride: 1, arrival_frames: 6, discontinuity_window: 24 };
-    let rules = Rules { requests: &reqs, pairs: &pairs, jump_ratio: 2.0, horizon: 1.0 };
+    let no_bridges = std::collections::HashSet::new();
+    let rules = Rules { requests: &reqs, pairs: &pairs, jump_ratio: 2.0, horizon: 1.0, on_bridge: &no_bridges };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
     let (mut rows, mut measured) = (Vec::new(), BTreeMap::new());
     for fault in FAULTS {
