@@ -541,19 +541,20 @@ fn model_quality(fits_path: &Path, errors_path: &Path) -> StageResult<Vec<Metric
     Ok(out)
 }
 
-/// Reads a metrics table (`metrics.parquet`) as written by this stage.
+/// Reads a metrics table (`metrics.parquet`) as written by this stage: a null `value` (a
+/// metric with no observation) reads as NaN.
 pub fn read_metrics(path: &Path) -> StageResult<Vec<Metric>> {
     let t = Table::read(path, METRICS)?;
     let (system, metric, from, to) = (t.strings("system")?, t.strings("metric")?, t.strings("from")?, t.strings("to")?);
     let (value, lo, hi, n, unit) =
-        (t.f64("value")?, t.f64_opt("ci_low")?, t.f64_opt("ci_high")?, t.i64("n")?, t.strings("unit")?);
+        (t.f64_opt("value")?, t.f64_opt("ci_low")?, t.f64_opt("ci_high")?, t.i64("n")?, t.strings("unit")?);
     Ok((0..t.rows())
         .map(|r| Metric {
             system: system[r].clone(),
             metric: metric[r].clone(),
             from: from[r].clone(),
             to: to[r].clone(),
-            value: value[r],
+            value: value[r].unwrap_or(f64::NAN),
             ci_low: lo[r],
             ci_high: hi[r],
             n: n[r],
@@ -569,7 +570,7 @@ fn write_metrics(path: &Path, m: &[Metric], provenance: &reprise_artifact::Prove
         .str("metric", &s(|m| m.metric.as_str()))
         .str("from", &s(|m| m.from.as_str()))
         .str("to", &s(|m| m.to.as_str()))
-        .f64("value", m.iter().map(|m| m.value).collect())
+        .f64_opt("value", m.iter().map(|m| Some(m.value).filter(|v| v.is_finite())).collect())
         .f64_opt("ci_low", m.iter().map(|m| m.ci_low).collect())
         .f64_opt("ci_high", m.iter().map(|m| m.ci_high).collect())
         .i64("n", m.iter().map(|m| m.n).collect())
@@ -624,6 +625,25 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The metrics table comes back as written; a value without observations (NaN) is
+    /// stored as null, never as a non-finite number, and reads back as NaN.
+    #[test]
+    fn metrics_round_trip_without_non_finite_values() {
+        let dir = std::env::temp_dir().join(format!("reprise-metrics-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("metrics.parquet");
+        let rows = vec![
+            aggregate::metric("reprise", "perceived_latency_s", "all", "all", &[0.5, 0.7], "s", 1),
+            aggregate::metric("crossfade", "latency_routed_s", "all", "all", &[], "s", 1),
+        ];
+        let provenance = reprise_artifact::Provenance::new("evaluate", "0", serde_json::json!({}));
+        write_metrics(&path, &rows, &provenance).unwrap();
+        let back = read_metrics(&path).unwrap();
+        assert_eq!(back[0], rows[0]);
+        assert!(back[1].value.is_nan() && back[1].n == 0 && back[1].ci_low.is_none());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     /// A start is on a bridge point when its frame is the `from_point` (the label's latent
     /// row, counted within the label) of a bridge of the same ordered pair.

@@ -132,7 +132,10 @@ pub fn sentences(m: &[Metric], ctx: &Context<'_>) -> Vec<Sentence> {
             order.extend(ctx.systems.iter().map(|(id, _)| id.as_str()).filter(|id| !r.order.iter().any(|o| o == id)));
             Sentence {
                 metric: r.metric.id,
-                what: format!("{}; {}", r.metric.definition, r.metric.direction.phrase()),
+                what: match r.metric.direction {
+                    Direction::NotRanked(_) => r.metric.definition.to_string(),
+                    d => format!("{}; {}", r.metric.definition, d.phrase()),
+                },
                 verdict,
                 values: order.iter().map(|id| (shown(id), overall_cell(m, ctx, id, r.metric.id))).collect(),
             }
