@@ -146,7 +146,8 @@ fn definitions(s: &mut String, ctx: &Context<'_>) {
         s,
         "## Definitions\n\n\
          Every system answers the same seeded requests \"from this training frame of A, reach B, then go on as B\" \
-         (each by its own native continuation for the same number of seconds after its label switch) and is measured by \
+         (after its label switch, each system plays its {k}-frame blend and then the same `hold` seconds in B by its own \
+         native continuation: reprise by the paper's IDLE command, the others by playing B's clip on) and is measured by \
          the same code on meshes evaluated through the rig. Only the frames after the request are measured; they split \
          into **reach** (before the system's first frame labelled B), **blend** (its first {k} frames labelled B) and \
          **settle** (the rest). Every mean is over requests (a request's frames are averaged first) and every CI \
