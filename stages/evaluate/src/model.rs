@@ -1,5 +1,5 @@
 //! The report's content, built once from the metric rows and the conclusions, below both
-//! renderers: [`crate::report`] writes it as Markdown, [`crate::html`] as HTML. Cells hold
+//! renderers: [`crate::report`] writes it as Markdown, `html` as HTML. Cells hold
 //! plain text; each renderer marks up the best cells and the names in its own way.
 
 use reprise_benchmark::metrics::{self, Direction};

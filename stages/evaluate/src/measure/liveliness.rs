@@ -26,7 +26,7 @@ impl Default for Liveliness {
     }
 }
 
-/// Measures the meshes `m` (`frames × dim`) split into `phases` ([`Phase::ranges`])
+/// Measures the meshes `m` (`frames × dim`) split into `phases` ([`super::Phase::ranges`])
 /// against label `to`'s training speeds (`None`: a label without training frames, NaN).
 pub fn measure(m: &[f64], training: &Training, to: Option<usize>, phases: &[Range<usize>; 4]) -> Liveliness {
     let Some(b) = to else { return Liveliness::default() };

@@ -5,8 +5,8 @@
 //! mesh, and kept apart by phase.
 //!
 //! Units: a distance in scaled control space is divided by the median distance between
-//! consecutive training frames there ([`Training::step`]); an RMS vertex distance by the
-//! median RMS vertex motion between consecutive training frames ([`Training::mesh_step`]).
+//! consecutive training frames there ([`crate::training::Training::step`]); an RMS vertex distance by the
+//! median RMS vertex motion between consecutive training frames ([`crate::training::Training::mesh_step`]).
 //! "3" reads "as far from any training pose as three frames of typical motion".
 
 use std::ops::Range;
