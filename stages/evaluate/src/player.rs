@@ -5,11 +5,11 @@
 //! plus base64 and `player.js` draws it; nothing here renders.
 //!
 //! **The rule.** Pairs: up to [`SHOWN_PAIRS`] ordered label pairs, ranked first by how many
-//! systems answer none of the pair's requests (a failure is the most telling thing to
-//! watch), then by the spread (max − min over the systems that answer) of the pair's mean
-//! latency, taken greedily so that no label appears in two shown pairs. Requests of a shown
-//! pair: for every system its median-latency and its worst request of the pair (longest
-//! latency; an unanswered one is the worst), in request order, at most
+//! systems arrive at none of the pair's requests (a failure is the most telling thing to
+//! watch), then by the spread (max − min over the systems that arrive) of the pair's mean
+//! perceived latency, taken greedily so that no label appears in two shown pairs. Requests
+//! of a shown pair: for every system its median and its worst request of the pair by
+//! perceived latency (one that never arrives is the worst), in request order, at most
 //! [`REQUESTS_PER_PAIR`]. Every shown request is played by every system given, side by
 //! side, aligned at the frame the transition is asked.
 
@@ -124,6 +124,8 @@ pub struct Inputs<'a> {
     pub requests: &'a [Request],
     /// The systems given.
     pub systems: &'a [System],
+    /// Their perceived latencies, per system.
+    pub arrivals: &'a Arrivals,
     /// The bridges and the models they are poses of (reprise's captions).
     pub bridges: &'a [Bridge],
     /// The GPLVM models.
@@ -142,19 +144,24 @@ pub type Pair = (String, String);
 /// A shown pair and its requests, each with why it was chosen.
 pub type Shown<'r> = (Pair, Vec<(&'r Request, String)>);
 
+/// Per system (in the order of the systems), its perceived latency (s) per request that
+/// arrived.
+pub type Arrivals = [BTreeMap<i64, f64>];
+
 /// The requests shown, grouped by pair, with why each was chosen (see the module doc).
-pub fn select<'r>(requests: &'r [Request], systems: &[System]) -> Vec<Shown<'r>> {
+pub fn select<'r>(requests: &'r [Request], systems: &[System], arrivals: &Arrivals) -> Vec<Shown<'r>> {
     let mut pairs: BTreeMap<(String, String), Vec<&Request>> = BTreeMap::new();
     for r in requests {
         pairs.entry((r.from.clone(), r.to.clone())).or_default().push(r);
     }
-    let latency = |s: &System, r: &Request| s.answer(r).and_then(|a| a.latency);
+    let index = |s: &System| systems.iter().position(|x| std::ptr::eq(x, s));
+    let latency = |s: &System, r: &Request| index(s).and_then(|i| arrivals.get(i)?.get(&r.request).copied());
     // (systems answering none of the pair, spread of the others' mean latencies).
     let rank = |reqs: &[&Request]| {
         let means: Vec<f64> = systems
             .iter()
             .filter_map(|s| {
-                let l: Vec<f64> = reqs.iter().filter_map(|r| latency(s, r)).map(|l| l as f64).collect();
+                let l: Vec<f64> = reqs.iter().filter_map(|r| latency(s, r)).collect();
                 (!l.is_empty()).then(|| l.iter().sum::<f64>() / l.len() as f64)
             })
             .collect();
@@ -177,10 +184,10 @@ pub fn select<'r>(requests: &'r [Request], systems: &[System]) -> Vec<Shown<'r>>
         .map(|(pair, reqs)| {
             let mut chosen: BTreeMap<i64, (&Request, Vec<String>)> = BTreeMap::new();
             for s in systems {
-                // Unanswered sorts last (the worst).
-                let mut by: Vec<(i64, &Request)> =
-                    reqs.iter().map(|r| (latency(s, r).unwrap_or(i64::MAX), *r)).collect();
-                by.sort_by_key(|(l, r)| (*l, r.request));
+                // Never arriving sorts last (the worst).
+                let mut by: Vec<(f64, &Request)> =
+                    reqs.iter().map(|r| (latency(s, r).unwrap_or(f64::INFINITY), *r)).collect();
+                by.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.request.cmp(&b.1.request)));
                 for (why, (_, r)) in [("median", by[(by.len() - 1) / 2]), ("worst", by[by.len() - 1])] {
                     chosen.entry(r.request).or_insert((r, vec![])).1.push(format!("{why} of {}", s.shown));
                 }
@@ -197,7 +204,7 @@ pub fn build(inp: &Inputs<'_>) -> StageResult<Player> {
     let label_index = |l: &str| inp.labels.iter().position(|x| x == l).map_or(u16::MAX, |i| i as u16);
     let mut poses: Vec<Vec<f64>> = Vec::new();
     let mut groups = Vec::new();
-    for (pair, reqs) in select(inp.requests, inp.systems) {
+    for (pair, reqs) in select(inp.requests, inp.systems, inp.arrivals) {
         for (r, why) in reqs {
             let mut clips = Vec::new();
             for s in inp.systems {
@@ -265,10 +272,11 @@ pub fn build(inp: &Inputs<'_>) -> StageResult<Player> {
     Ok(player)
 }
 
-const RULE: &str = "Pairs: label pairs ranked first by how many systems answer none of the pair's requests, then by \
-     the spread (max − min over the systems that answer) of the pair's mean latency, taken greedily so that no label \
-     appears in two shown pairs. Requests: for each system, its median-latency and its worst request of the pair \
-     (an unanswered request is the worst), in request order. Systems are aligned at the frame the transition is asked.";
+const RULE: &str = "Pairs: label pairs ranked first by how many systems arrive at none of the pair's requests (arrival \
+     as a viewer sees it), then by the spread (max − min over the systems that arrive) of the pair's mean perceived \
+     latency, taken greedily so that no label appears in two shown pairs. Requests: for each system, its median and its \
+     worst request of the pair by perceived latency (one that never arrives is the worst), in request order. Systems \
+     are aligned at the frame the transition is asked.";
 
 fn note_or(note: String, otherwise: &str) -> String {
     if note.is_empty() {
@@ -491,7 +499,12 @@ mod tests {
             2 => Some(30),
             _ => Some(10 + 2 * (id % 10)),
         });
-        let shown = select(&reqs, &[fast, slow]);
+        let systems = [fast, slow];
+        let arrivals: Vec<BTreeMap<i64, f64>> = systems
+            .iter()
+            .map(|s| reqs.iter().filter_map(|r| Some((r.request, s.answer(r)?.latency? as f64))).collect())
+            .collect();
+        let shown = select(&reqs, &systems, &arrivals);
         let pairs: Vec<&Pair> = shown.iter().map(|(p, _)| p).collect();
         // a → b (a failure), then c → d (spread 29); d → e shares d, a → c shares a and c.
         assert_eq!(pairs, [&("a".to_string(), "b".to_string()), &("c".to_string(), "d".to_string())]);
