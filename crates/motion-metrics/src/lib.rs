@@ -156,6 +156,24 @@ pub fn squared_distance_f32(a: &[f32], b: &[f64]) -> f64 {
     (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]) + tail
 }
 
+/// [`squared_distance`] between two single-precision vectors, summed in single precision
+/// in eight lanes (for orderings and bounds, not for reported distances).
+pub fn squared_distance_f32s(a: &[f32], b: &[f32]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut lanes = [0.0f32; 8];
+    let (ac, bc) = (a.chunks_exact(8), b.chunks_exact(8));
+    let (ar, br) = (ac.remainder(), bc.remainder());
+    for (x, y) in ac.zip(bc) {
+        for k in 0..8 {
+            let d = x[k] - y[k];
+            lanes[k] += d * d;
+        }
+    }
+    let tail: f32 = ar.iter().zip(br).map(|(x, y)| (x - y) * (x - y)).sum();
+    f64::from(lanes.iter().sum::<f32>() + tail)
+}
+
 /// The distance from `x` to the nearest of the rows of `set` (`rows × dim`).
 pub fn nearest_distance(x: &[f64], set: &[f64], dim: usize) -> f64 {
     set.chunks_exact(dim)

@@ -9,7 +9,7 @@
 use rayon::prelude::*;
 use reprise_artifact::frames::LabeledFrames;
 use reprise_motion_metrics::{
-    nearest_k, peak_speeds, peaks, quantile, rms_speeds, squared_distance, squared_distance_f32,
+    nearest_k, peak_speeds, peaks, quantile, rms_speeds, squared_distance, squared_distance_f32, squared_distance_f32s,
 };
 use reprise_numerics::gplvm::RigMap;
 use reprise_stagekit::rig::{mesh_rmse, meshes};
@@ -30,8 +30,12 @@ pub struct Reference {
     pub z: Vec<f64>,
     /// Vertex positions, `N × 3V` (single precision: distances are reported to 3 digits).
     pub mesh: Vec<f32>,
-    /// Coordinates $U^\top(z - \bar z)$ in the search basis ([`Training::basis`]), `N × r`.
-    pub reduced: Vec<f64>,
+    /// Coordinates $U^\top(z - \bar z)$ in the search basis ([`Training::basis`]), `N × r`,
+    /// in single precision (they only order candidates; see [`Reference::slack`]).
+    pub reduced: Vec<f32>,
+    /// The largest magnitude of the coordinates in `reduced` (sets the single-precision
+    /// slack, [`Reference::slack`]).
+    pub max_abs: f64,
 }
 
 /// The training data's reference values.
@@ -126,8 +130,10 @@ impl Reference {
         let order = |a: &(f64, usize), b: &(f64, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
         // Squared lower bounds of every row; only as many as the visit needs get sorted: a
         // first batch, then the rest if the batch ran out before the bound passed the k-th.
+        let y32: Vec<f32> = y.iter().map(|v| *v as f32).collect();
+        let slack = self.slack(y.iter().fold(0.0f64, |a, v| a.max(v.abs())), r);
         let mut bound: Vec<(f64, usize)> =
-            self.reduced.chunks_exact(r).enumerate().map(|(i, row)| (squared_distance(row, y), i)).collect();
+            self.reduced.chunks_exact(r).enumerate().map(|(i, row)| (squared_distance_f32s(row, &y32), i)).collect();
         let batch = (8 * MESH_CANDIDATES).min(bound.len());
         if batch < bound.len() {
             bound.select_nth_unstable_by(batch, order);
@@ -135,7 +141,7 @@ impl Reference {
         bound[..batch].sort_unstable_by(order);
         let mut best: Vec<(f64, usize)> = Vec::with_capacity(MESH_CANDIDATES + 1);
         let visit = |(lb, i): (f64, usize), best: &mut Vec<(f64, usize)>| -> bool {
-            if best.len() == MESH_CANDIDATES && lb.sqrt() > best[MESH_CANDIDATES - 1].0 {
+            if best.len() == MESH_CANDIDATES && lb.sqrt() - slack > best[MESH_CANDIDATES - 1].0 {
                 return false;
             }
             let d = squared_distance(&self.z[i * c..(i + 1) * c], z).sqrt();
@@ -161,6 +167,20 @@ impl Reference {
             }
         }
         best
+    }
+
+    /// How far a distance computed from the single-precision coordinates (the set's, of
+    /// largest magnitude $M$, and a query's, of largest magnitude $Q$) can be from the exact
+    /// one, in mesh length: with $A = \max(M, Q)$ each coordinate is off by at most
+    /// $2^{-24}A$, a difference by $2 \cdot 2^{-24}A$, a distance over $r$ coordinates by
+    /// $2\sqrt r\,2^{-24}A$; the single-precision sum of $r$ squares adds $r\,2^{-24}$ of
+    /// itself, at most $r\,2^{-24} \cdot 2A\sqrt r$ in distance. Taken with a factor 4 to
+    /// spare. The search stops only once a bound minus this passes the k-th best, so its
+    /// result stays exact.
+    pub fn slack(&self, q: f64, r: usize) -> f64 {
+        let a = self.max_abs.max(q);
+        let (eps, rt) = (f64::from(f32::EPSILON), (r.max(1) as f64).sqrt());
+        4.0 * (2.0 * rt * eps * a + r as f64 * eps * 2.0 * a * rt)
     }
 
     /// The squared vertex distance $\sum (r_i - m)^2$ between row `i`'s mesh and `m`, or
@@ -295,7 +315,9 @@ impl Training {
         let basis = reprise_numerics::pca::Pca::fit(&raw.z, c, &params).ok();
         if let Some(b) = &basis {
             for set in [&mut raw, &mut floor] {
-                set.reduced = set.z.par_chunks(c).flat_map_iter(|row| b.project(row, b.kept)).collect();
+                let reduced: Vec<f64> = set.z.par_chunks(c).flat_map_iter(|row| b.project(row, b.kept)).collect();
+                set.max_abs = reduced.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                set.reduced = reduced.iter().map(|v| *v as f32).collect();
             }
         }
         let steps: Vec<f64> = runs
@@ -458,10 +480,12 @@ pub(crate) mod tests {
         let z: Vec<f64> = (0..n * c).map(|i| rng.gen::<f64>() * (1.0 + (i % c) as f64)).collect();
         let params = reprise_numerics::pca::PcaParams { variance: 1.0, min_components: 1, max_components: 5 };
         let basis = reprise_numerics::pca::Pca::fit(&z, c, &params).unwrap();
-        let reduced = z.chunks(c).flat_map(|r| basis.project(r, basis.kept)).collect();
+        let reduced: Vec<f64> = z.chunks(c).flat_map(|r| basis.project(r, basis.kept)).collect();
+        let max_abs = reduced.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        let reduced = reduced.iter().map(|v| *v as f32).collect();
         let mesh: Vec<f32> = z.iter().map(|v| *v as f32).collect();
-        let set = Reference { z: z.clone(), mesh: mesh.clone(), reduced };
-        let full = Reference { z: z.clone(), mesh, reduced: vec![] };
+        let set = Reference { z: z.clone(), mesh: mesh.clone(), reduced, max_abs };
+        let full = Reference { z: z.clone(), mesh, reduced: vec![], max_abs: 0.0 };
         for _ in 0..50 {
             let q: Vec<f64> = (0..c).map(|j| rng.gen::<f64>() * (1.0 + j as f64)).collect();
             let y = basis.project(&q, basis.kept);
