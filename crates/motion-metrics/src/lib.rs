@@ -290,6 +290,8 @@ mod tests {
             let a32: Vec<f32> = a.iter().map(|v| *v as f32).collect();
             let plain32: f64 = a32.iter().zip(&b).map(|(x, y)| (f64::from(*x) - y).powi(2)).sum();
             assert!((squared_distance_f32(&a32, &b) - plain32).abs() < 1e-12, "{n}");
+            let b32: Vec<f32> = b.iter().map(|v| *v as f32).collect();
+            assert!((squared_distance_f32s(&a32, &b32) - plain).abs() <= 1e-5 * (1.0 + plain), "{n}");
         }
     }
 
