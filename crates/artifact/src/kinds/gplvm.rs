@@ -23,7 +23,26 @@
 //! `beta` (SCG's scale; L-BFGS's accepted step length), `accepted`, `evaluations`
 //! (cumulative) and `seconds` (since the optimiser started).
 //!
-//! `gplvm_fits` — one row per label: see [`FitSummary`].
+//! `gplvm_fits` — one row per label ([`FitSummary`], written by [`write_fits`], read by
+//! [`read_fits`]):
+//!
+//! | column | type | meaning |
+//! |---|---|---|
+//! | `label` | Utf8 | the model |
+//! | `frames`, `d`, `q` | Int64 | training frames $N$, PCA dimension $d$, latent dimension $q$ |
+//! | `optimizer`, `connectivity_path` | Utf8 | `lbfgs`/`scg`; how the connectivity prior entered (`exact`, `staged`, `subset`, `coarse`) |
+//! | `stage_iterations` | Utf8 | iterations per stage, `"i"` or `"subset+exact"` |
+//! | `iterations`, `evaluations` | Int64 | optimiser iterations; objective evaluations |
+//! | `initial_objective`, `objective` | Float64 | $E$ at the start and at the optimum |
+//! | `neg_log_likelihood`, `dynamics`, `connectivity`, `signal` | Float64 | the terms of $E$ at the optimum |
+//! | `connectivity_exact` | Float64 | the exact connectivity prior at the optimum |
+//! | `grad_norm`, `rel_decrease`, `rel_gradient` | Float64 | $\lVert\nabla E\rVert_2$; the convergence rule's two measures (`rel_decrease` may be `inf`) |
+//! | `jitter`, `dynamics_jitter` | Float64 | jitter added to $K$ and to the dynamics prior's blocks |
+//! | `converged`, `stop_reason` | Boolean, Utf8 | whether a convergence test stopped the fit, and why it stopped |
+//! | `seconds` | Float64 | wall-clock seconds of the fit |
+//! | `heldout_gplvm_mesh_rmse` | Float64, nullable | held-out check (null when off): RMS vertex distance, mesh units, of the held-out frames through their best latent point of a model fitted without them |
+//! | `heldout_pca_mesh_rmse` | Float64, nullable | the same frames through a PCA of the same training frames with $q$ components |
+//! | `heldout_frames` | Int64 | held-out frames (0 when off) |
 
 use std::path::Path;
 
@@ -327,6 +346,7 @@ pub struct FitSummary {
 pub fn write_fits(path: &Path, rows: &[FitSummary], provenance: &Provenance) -> Result<()> {
     let i = |f: fn(&FitSummary) -> i64| rows.iter().map(f).collect::<Vec<_>>();
     let x = |f: fn(&FitSummary) -> f64| rows.iter().map(f).collect::<Vec<_>>();
+    let o = |f: fn(&FitSummary) -> Option<f64>| rows.iter().map(f).collect::<Vec<_>>();
     let stage_iterations: Vec<String> =
         rows.iter().map(|r| r.stage_iterations.iter().map(i64::to_string).collect::<Vec<_>>().join("+")).collect();
     let stage_iterations: Vec<&str> = stage_iterations.iter().map(String::as_str).collect();
@@ -355,10 +375,69 @@ pub fn write_fits(path: &Path, rows: &[FitSummary], provenance: &Provenance) -> 
         .bool("converged", rows.iter().map(|r| r.converged).collect())
         .str("stop_reason", &rows.iter().map(|r| r.stop_reason.as_str()).collect::<Vec<_>>())
         .f64("seconds", x(|r| r.seconds))
-        .f64_opt("heldout_gplvm_mesh_rmse", rows.iter().map(|r| r.heldout_gplvm_mesh_rmse).collect())
-        .f64_opt("heldout_pca_mesh_rmse", rows.iter().map(|r| r.heldout_pca_mesh_rmse).collect())
+        .f64_opt("heldout_gplvm_mesh_rmse", o(|r| r.heldout_gplvm_mesh_rmse))
+        .f64_opt("heldout_pca_mesh_rmse", o(|r| r.heldout_pca_mesh_rmse))
         .i64("heldout_frames", i(|r| r.heldout_frames));
     crate::table::write(path, GPLVM_FITS, cols, provenance, &[])
+}
+
+/// Reads the fit summaries, in file order.
+pub fn read_fits(path: &Path) -> Result<Vec<FitSummary>> {
+    let t = Table::read(path, GPLVM_FITS)?;
+    let s = |name: &str| t.strings(name);
+    let (label, optimizer, connectivity_path, stages, stop_reason) =
+        (s("label")?, s("optimizer")?, s("connectivity_path")?, s("stage_iterations")?, s("stop_reason")?);
+    let (frames, d, q, iterations, evaluations) =
+        (t.i64("frames")?, t.i64("d")?, t.i64("q")?, t.i64("iterations")?, t.i64("evaluations")?);
+    let (initial_objective, objective, neg_log_likelihood) =
+        (t.f64("initial_objective")?, t.f64("objective")?, t.f64("neg_log_likelihood")?);
+    let (dynamics, connectivity, signal, connectivity_exact) =
+        (t.f64("dynamics")?, t.f64("connectivity")?, t.f64("signal")?, t.f64("connectivity_exact")?);
+    let (grad_norm, rel_decrease, rel_gradient) =
+        (t.f64("grad_norm")?, t.f64_any("rel_decrease")?, t.f64("rel_gradient")?);
+    let (jitter, dynamics_jitter, seconds, converged) =
+        (t.f64("jitter")?, t.f64("dynamics_jitter")?, t.f64("seconds")?, t.bool("converged")?);
+    let (held_g, held_p) = (t.f64_opt("heldout_gplvm_mesh_rmse")?, t.f64_opt("heldout_pca_mesh_rmse")?);
+    let heldout_frames = t.i64("heldout_frames")?;
+    (0..t.rows())
+        .map(|r| {
+            let stage_iterations = stages[r]
+                .split('+')
+                .filter(|v| !v.is_empty())
+                .map(str::parse)
+                .collect::<std::result::Result<Vec<i64>, _>>()
+                .map_err(|_| t.invalid(format!("row {r}: stage_iterations `{}` is not \"i\" or \"i+j\"", stages[r])))?;
+            Ok(FitSummary {
+                label: label[r].clone(),
+                frames: frames[r],
+                d: d[r],
+                q: q[r],
+                optimizer: optimizer[r].clone(),
+                connectivity_path: connectivity_path[r].clone(),
+                stage_iterations,
+                iterations: iterations[r],
+                evaluations: evaluations[r],
+                initial_objective: initial_objective[r],
+                objective: objective[r],
+                neg_log_likelihood: neg_log_likelihood[r],
+                dynamics: dynamics[r],
+                connectivity: connectivity[r],
+                signal: signal[r],
+                connectivity_exact: connectivity_exact[r],
+                grad_norm: grad_norm[r],
+                rel_decrease: rel_decrease[r],
+                rel_gradient: rel_gradient[r],
+                jitter: jitter[r],
+                dynamics_jitter: dynamics_jitter[r],
+                converged: converged[r],
+                stop_reason: stop_reason[r].clone(),
+                seconds: seconds[r],
+                heldout_gplvm_mesh_rmse: held_g[r],
+                heldout_pca_mesh_rmse: held_p[r],
+                heldout_frames: heldout_frames[r],
+            })
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -402,5 +481,61 @@ mod tests {
         let path = dir.path().join("l.parquet");
         write_latents(&path, &latents, &prov()).unwrap();
         assert_eq!(read_latents(&path).unwrap(), latents);
+    }
+
+    /// Fit summaries come back as written: with the held-out check, with the check off (nulls and zeros), with two fit stages, and an unfilled window's
+    /// `rel_decrease = inf`; a table of the previous version is refused.
+    #[test]
+    fn fits_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let on = FitSummary {
+            label: "happy".into(),
+            frames: 520,
+            d: 5,
+            q: 3,
+            optimizer: "lbfgs".into(),
+            connectivity_path: "coarse".into(),
+            stage_iterations: vec![1372],
+            iterations: 1372,
+            evaluations: 1400,
+            initial_objective: 9000.5,
+            objective: 3000.25,
+            neg_log_likelihood: 2900.0,
+            dynamics: 80.0,
+            connectivity: 19.0,
+            signal: 1.25,
+            connectivity_exact: 19.5,
+            grad_norm: 1e-3,
+            rel_decrease: 1e-10,
+            rel_gradient: 2e-6,
+            jitter: 1e-8,
+            dynamics_jitter: 0.0,
+            converged: true,
+            stop_reason: "converged".into(),
+            seconds: 11.1,
+            heldout_gplvm_mesh_rmse: Some(0.25),
+            heldout_pca_mesh_rmse: Some(0.4),
+            heldout_frames: 52,
+        };
+        let off = FitSummary {
+            label: "roar".into(),
+            stage_iterations: vec![12, 34],
+            rel_decrease: f64::INFINITY,
+            converged: false,
+            stop_reason: "max-iterations".into(),
+            heldout_gplvm_mesh_rmse: None,
+            heldout_pca_mesh_rmse: None,
+            heldout_frames: 0,
+            ..on.clone()
+        };
+        let rows = vec![on, off];
+        let path = dir.path().join("f.parquet");
+        write_fits(&path, &rows, &prov()).unwrap();
+        assert_eq!(read_fits(&path).unwrap(), rows);
+        let old = dir.path().join("old.parquet");
+        let v1 = Kind { version: 1, ..GPLVM_FITS };
+        crate::table::write(&old, v1, Columns::new().str("label", &["a"]), &prov(), &[]).unwrap();
+        let e = read_fits(&old).unwrap_err().to_string();
+        assert!(e.contains("old.parquet"), "{e}");
     }
 }
