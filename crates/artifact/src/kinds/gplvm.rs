@@ -40,9 +40,13 @@
 //! | `jitter`, `dynamics_jitter` | Float64 | jitter added to $K$ and to the dynamics prior's blocks |
 //! | `converged`, `stop_reason` | Boolean, Utf8 | whether a convergence test stopped the fit, and why it stopped |
 //! | `seconds` | Float64 | wall-clock seconds of the fit |
-//! | `heldout_gplvm_mesh_rmse` | Float64, nullable | held-out check (null when off): RMS vertex distance, mesh units, of the held-out frames through their best latent point of a model fitted without them |
-//! | `heldout_pca_mesh_rmse` | Float64, nullable | the same frames through a PCA of the same training frames with $q$ components |
+//! | `heldout_gplvm_mesh_rmse` | Float64, nullable | held-out check (null when off): RMS vertex distance, mesh units, of the held-out frames through their best latent point of a GPLVM fitted without them, in a PCA basis fitted without them |
+//! | `heldout_pca_q_mesh_rmse`, `heldout_pca_d_mesh_rmse` | Float64, nullable | the same frames through that basis's first $q$ and all `heldout_d` components |
+//! | `heldout_d` | Int64 | the dimension of that basis: $d$, or fewer if the training frames span fewer (0 when off) |
 //! | `heldout_frames` | Int64 | held-out frames (0 when off) |
+//! | `generative_gplvm_mesh_rmse` | Float64, nullable | held-out frames whose previous and next frames are training frames, through the GPLVM at the midpoint of the neighbours' latents (null without such frames) |
+//! | `generative_interp_mesh_rmse` | Float64, nullable | the same frames as the midpoint of the neighbours' poses (linear interpolation of controls) |
+//! | `generative_frames` | Int64 | frames of the generative check (0 when off or none) |
 
 use std::path::Path;
 
@@ -57,7 +61,7 @@ pub const GPLVM_MODELS: Kind = Kind { name: "gplvm_models", version: 1 };
 /// Kind of the trace table.
 pub const GPLVM_TRACE: Kind = Kind { name: "gplvm_trace", version: 2 };
 /// Kind of the fit summary table.
-pub const GPLVM_FITS: Kind = Kind { name: "gplvm_fits", version: 2 };
+pub const GPLVM_FITS: Kind = Kind { name: "gplvm_fits", version: 3 };
 
 /// Per-frame latent points of every model.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -333,13 +337,29 @@ pub struct FitSummary {
     pub stop_reason: String,
     /// Wall-clock seconds of the fit.
     pub seconds: f64,
-    /// Held-out check (None when off): RMS mesh error of the held-out frames through
-    /// their best latent point of a model fitted without them …
+    /// Held-out check (None when off; the gplvm stage's `heldout` module): every K-th
+    /// frame is held out and the rest fit a PCA basis of `heldout_d` components and a
+    /// GPLVM in it. RMS vertex distance (mesh units) of the held-out frames to their
+    /// meshes through their best latent point …
     pub heldout_gplvm_mesh_rmse: Option<f64>,
-    /// … and through a PCA of the same training frames with q components.
-    pub heldout_pca_mesh_rmse: Option<f64>,
-    /// Held-out frames.
+    /// … through the first q components of that basis …
+    pub heldout_pca_q_mesh_rmse: Option<f64>,
+    /// … and through all `heldout_d` of them (the space the GPLVM models).
+    pub heldout_pca_d_mesh_rmse: Option<f64>,
+    /// Components of the held-out check's basis: `d`, or fewer when the training frames
+    /// span fewer (0 when off).
+    pub heldout_d: i64,
+    /// Held-out frames (0 when off).
     pub heldout_frames: i64,
+    /// Generative check (None when off or without such frames): RMS vertex distance of the
+    /// held-out frames whose previous and next frames (same segment) are training frames,
+    /// through the GPLVM at the midpoint of those neighbours' fitted latents …
+    pub generative_gplvm_mesh_rmse: Option<f64>,
+    /// … and as the midpoint of the neighbours' poses (linear interpolation of controls,
+    /// no model).
+    pub generative_interp_mesh_rmse: Option<f64>,
+    /// Frames of the generative check.
+    pub generative_frames: i64,
 }
 
 /// Writes the fit summaries atomically.
@@ -376,8 +396,13 @@ pub fn write_fits(path: &Path, rows: &[FitSummary], provenance: &Provenance) -> 
         .str("stop_reason", &rows.iter().map(|r| r.stop_reason.as_str()).collect::<Vec<_>>())
         .f64("seconds", x(|r| r.seconds))
         .f64_opt("heldout_gplvm_mesh_rmse", o(|r| r.heldout_gplvm_mesh_rmse))
-        .f64_opt("heldout_pca_mesh_rmse", o(|r| r.heldout_pca_mesh_rmse))
-        .i64("heldout_frames", i(|r| r.heldout_frames));
+        .f64_opt("heldout_pca_q_mesh_rmse", o(|r| r.heldout_pca_q_mesh_rmse))
+        .f64_opt("heldout_pca_d_mesh_rmse", o(|r| r.heldout_pca_d_mesh_rmse))
+        .i64("heldout_d", i(|r| r.heldout_d))
+        .i64("heldout_frames", i(|r| r.heldout_frames))
+        .f64_opt("generative_gplvm_mesh_rmse", o(|r| r.generative_gplvm_mesh_rmse))
+        .f64_opt("generative_interp_mesh_rmse", o(|r| r.generative_interp_mesh_rmse))
+        .i64("generative_frames", i(|r| r.generative_frames));
     crate::table::write(path, GPLVM_FITS, cols, provenance, &[])
 }
 
@@ -397,8 +422,17 @@ pub fn read_fits(path: &Path) -> Result<Vec<FitSummary>> {
         (t.f64("grad_norm")?, t.f64_any("rel_decrease")?, t.f64("rel_gradient")?);
     let (jitter, dynamics_jitter, seconds, converged) =
         (t.f64("jitter")?, t.f64("dynamics_jitter")?, t.f64("seconds")?, t.bool("converged")?);
-    let (held_g, held_p) = (t.f64_opt("heldout_gplvm_mesh_rmse")?, t.f64_opt("heldout_pca_mesh_rmse")?);
-    let heldout_frames = t.i64("heldout_frames")?;
+    let (held_g, held_q, held_d) = (
+        t.f64_opt("heldout_gplvm_mesh_rmse")?,
+        t.f64_opt("heldout_pca_q_mesh_rmse")?,
+        t.f64_opt("heldout_pca_d_mesh_rmse")?,
+    );
+    let (heldout_d, heldout_frames) = (t.i64("heldout_d")?, t.i64("heldout_frames")?);
+    let (gen_g, gen_i, gen_frames) = (
+        t.f64_opt("generative_gplvm_mesh_rmse")?,
+        t.f64_opt("generative_interp_mesh_rmse")?,
+        t.i64("generative_frames")?,
+    );
     (0..t.rows())
         .map(|r| {
             let stage_iterations = stages[r]
@@ -433,8 +467,13 @@ pub fn read_fits(path: &Path) -> Result<Vec<FitSummary>> {
                 stop_reason: stop_reason[r].clone(),
                 seconds: seconds[r],
                 heldout_gplvm_mesh_rmse: held_g[r],
-                heldout_pca_mesh_rmse: held_p[r],
+                heldout_pca_q_mesh_rmse: held_q[r],
+                heldout_pca_d_mesh_rmse: held_d[r],
+                heldout_d: heldout_d[r],
                 heldout_frames: heldout_frames[r],
+                generative_gplvm_mesh_rmse: gen_g[r],
+                generative_interp_mesh_rmse: gen_i[r],
+                generative_frames: gen_frames[r],
             })
         })
         .collect()
@@ -483,7 +522,8 @@ mod tests {
         assert_eq!(read_latents(&path).unwrap(), latents);
     }
 
-    /// Fit summaries come back as written: with the held-out check, with the check off (nulls and zeros), with two fit stages, and an unfilled window's
+    /// Fit summaries come back as written: with the held-out and generative checks, with
+    /// the check off (nulls and zeros), with two fit stages, and an unfilled window's
     /// `rel_decrease = inf`; a table of the previous version is refused.
     #[test]
     fn fits_round_trip() {
@@ -514,8 +554,13 @@ mod tests {
             stop_reason: "converged".into(),
             seconds: 11.1,
             heldout_gplvm_mesh_rmse: Some(0.25),
-            heldout_pca_mesh_rmse: Some(0.4),
+            heldout_pca_q_mesh_rmse: Some(0.4),
+            heldout_pca_d_mesh_rmse: Some(0.2),
+            heldout_d: 5,
             heldout_frames: 52,
+            generative_gplvm_mesh_rmse: Some(0.3),
+            generative_interp_mesh_rmse: Some(0.1),
+            generative_frames: 50,
         };
         let off = FitSummary {
             label: "roar".into(),
@@ -524,8 +569,13 @@ mod tests {
             converged: false,
             stop_reason: "max-iterations".into(),
             heldout_gplvm_mesh_rmse: None,
-            heldout_pca_mesh_rmse: None,
+            heldout_pca_q_mesh_rmse: None,
+            heldout_pca_d_mesh_rmse: None,
+            heldout_d: 0,
             heldout_frames: 0,
+            generative_gplvm_mesh_rmse: None,
+            generative_interp_mesh_rmse: None,
+            generative_frames: 0,
             ..on.clone()
         };
         let rows = vec![on, off];
@@ -533,8 +583,8 @@ mod tests {
         write_fits(&path, &rows, &prov()).unwrap();
         assert_eq!(read_fits(&path).unwrap(), rows);
         let old = dir.path().join("old.parquet");
-        let v1 = Kind { version: 1, ..GPLVM_FITS };
-        crate::table::write(&old, v1, Columns::new().str("label", &["a"]), &prov(), &[]).unwrap();
+        let v2 = Kind { version: 2, ..GPLVM_FITS };
+        crate::table::write(&old, v2, Columns::new().str("label", &["a"]), &prov(), &[]).unwrap();
         let e = read_fits(&old).unwrap_err().to_string();
         assert!(e.contains("old.parquet"), "{e}");
     }
