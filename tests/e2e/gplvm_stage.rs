@@ -27,13 +27,21 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     let latents = gplvm::read_latents(&a("gplvm_latents")).unwrap();
     assert_eq!(latents.label.len(), 3745);
     assert!(latents.x.iter().all(|x| x.len() == 3 && x.iter().all(|v| v.is_finite())));
-    let fits = reprise_artifact::Table::read(&a("gplvm_fits"), gplvm::GPLVM_FITS).unwrap();
-    assert_eq!(fits.rows(), 8);
-    let (init, obj) = (fits.f64("initial_objective").unwrap(), fits.f64("objective").unwrap());
-    assert!(init.iter().zip(obj).all(|(i, o)| o < i), "every fit lowers its objective");
-    let held_g = fits.f64_opt("heldout_gplvm_mesh_rmse").unwrap();
-    let held_p = fits.f64_opt("heldout_pca_mesh_rmse").unwrap();
-    assert!(held_g.iter().chain(&held_p).all(|v| v.is_some_and(|v| v.is_finite() && v > 0.0)));
+    let fits = gplvm::read_fits(&a("gplvm_fits")).unwrap();
+    assert_eq!(fits.len(), 8);
+    assert!(fits.iter().all(|f| f.objective < f.initial_objective), "every fit lowers its objective");
+    for f in &fits {
+        let errors = [
+            f.heldout_gplvm_mesh_rmse,
+            f.heldout_pca_q_mesh_rmse,
+            f.heldout_pca_d_mesh_rmse,
+            f.generative_gplvm_mesh_rmse,
+            f.generative_interp_mesh_rmse,
+        ];
+        assert!(errors.iter().all(|v| v.is_some_and(|v| v.is_finite() && v > 0.0)), "{f:?}");
+        assert!((1..=f.d).contains(&f.heldout_d) && f.heldout_frames > 0, "{f:?}");
+        assert!((1..=f.heldout_frames).contains(&f.generative_frames), "{f:?}");
+    }
     let trace = reprise_artifact::Table::read(&a("gplvm_trace"), gplvm::GPLVM_TRACE).unwrap();
     assert!(trace.rows() >= 8 && trace.rows() <= 8 * 40);
 

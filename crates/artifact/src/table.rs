@@ -382,6 +382,11 @@ impl Table {
         }
         Ok(values)
     }
+    /// A Float64 column without nulls whose values may be infinite or NaN (for columns
+    /// whose meaning includes them, e.g. a ratio that is `inf` when undefined).
+    pub fn f64_any(&self, name: &str) -> Result<&[f64]> {
+        Ok(self.typed::<Float64Array>(name, "Float64")?.values())
+    }
     /// A nullable Float64 column (nulls as None; non-null values must be finite).
     pub fn f64_opt(&self, name: &str) -> Result<Vec<Option<f64>>> {
         let col = self.column(name)?;

@@ -1,8 +1,12 @@
 //! The label models that the stages after `gplvm` (bridges, synthesize, evaluate) use:
 //! each label's GPLVM ([`reprise_artifact::gplvm`]), its scaled PCA
 //! ([`reprise_artifact::pca`]) and its control scaling ([`reprise_artifact::scales`]),
-//! assembled into a [`LatentModel`] that maps a latent point to rig controls.
+//! assembled into a [`LatentModel`] that maps a latent point to rig controls; and the
+//! control scaling itself ([`Scaling`]), which the pca stage fits in and the gplvm
+//! stage's held-out check refits in.
 #![warn(missing_docs)]
+
+mod scaling;
 
 use std::path::Path;
 
@@ -13,6 +17,7 @@ use reprise_numerics::gplvm::{Hyper, Jitter, LatentModel, LikelihoodConfig, Mean
 use reprise_stagekit::{StageError, StageResult};
 
 pub use reprise_numerics::gplvm::LatentModel as Model;
+pub use scaling::Scaling;
 
 /// Every label's model, over one list of controls (the columns of `labeled_frames`).
 #[derive(Debug, Clone)]
@@ -40,20 +45,7 @@ impl Models {
 
 /// The map from a label's scaled-PCA coordinates to its rig controls.
 pub fn rig_map(pca: &PcaModel, controls: &[String], scales: &[Scale], scales_path: &Path) -> StageResult<RigMap> {
-    let (mut mean_p, mut weight) = (Vec::with_capacity(controls.len()), Vec::with_capacity(controls.len()));
-    for c in controls {
-        let s = scales.iter().find(|s| s.label == pca.label && &s.control == c).ok_or_else(|| {
-            StageError::Input(format!(
-                "{}: no scale for label `{}`, control `{c}`; rerun scale",
-                scales_path.display(),
-                pca.label
-            ))
-        })?;
-        mean_p.push(s.mean);
-        weight.push(if s.used { s.weight } else { 0.0 });
-    }
-    RigMap::from_pca(&pca.mean, &pca.directions, &mean_p, &weight)
-        .map_err(|e| StageError::Input(format!("label `{}`: {e}", pca.label)))
+    Scaling::new(&pca.label, controls, scales, scales_path)?.rig_map(pca)
 }
 
 fn assemble(

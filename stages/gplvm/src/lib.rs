@@ -4,10 +4,12 @@
 //! by MAP with SCG from the whitened first $q$ PCA coordinates. Labels are fitted in
 //! parallel (one rayon task and one progress bar per label; each fit is sequential).
 //!
-//! Optionally (`--heldout-every K`), a held-out check per label: every K-th frame is left
-//! out, a second model is fitted on the rest, and each held-out frame is reconstructed
-//! through its best latent point; the RMS mesh error is compared with a $q$-component
-//! PCA of the same training frames.
+//! Optionally (`--heldout-every K`), a held-out check per label (`heldout`): every K-th
+//! frame is left out, a PCA basis and a second model are fitted on the rest, and each
+//! held-out frame is reconstructed through its best latent point, beside PCAs of the same
+//! training frames with $q$ and $d$ components; and a generative check, held-out frames
+//! between two training frames from the midpoint of their latents, beside linear
+//! interpolation. All as RMS mesh errors.
 
 mod heldout;
 
@@ -529,9 +531,14 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
                     converged: fit.info.converged,
                     stop_reason: fit.info.reason.name().into(),
                     seconds,
-                    heldout_gplvm_mesh_rmse: held.as_ref().map(|h| h.gplvm_rmse),
-                    heldout_pca_mesh_rmse: held.as_ref().map(|h| h.pca_rmse),
-                    heldout_frames: held.as_ref().map_or(0, |h| h.frames as i64),
+                    heldout_gplvm_mesh_rmse: held.and_then(|h| h.gplvm_rmse),
+                    heldout_pca_q_mesh_rmse: held.and_then(|h| h.pca_q_rmse),
+                    heldout_pca_d_mesh_rmse: held.and_then(|h| h.pca_d_rmse),
+                    heldout_d: held.map_or(0, |h| h.d as i64),
+                    heldout_frames: held.map_or(0, |h| h.frames as i64),
+                    generative_gplvm_mesh_rmse: held.and_then(|h| h.generative_gplvm_rmse),
+                    generative_interp_mesh_rmse: held.and_then(|h| h.generative_interp_rmse),
+                    generative_frames: held.map_or(0, |h| h.generative_frames as i64),
                 };
                 Ok((fit, summary))
             })

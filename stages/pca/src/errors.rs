@@ -27,7 +27,7 @@ pub(crate) fn measure(
     let mut rows = Vec::new();
     for (variant, pca, is_scaled) in [(SCALED, scaled, true), (UNSCALED, unscaled, false)] {
         let z = data.matrix(labeled, is_scaled);
-        let u = data.used.len();
+        let u = data.scaling.used.len();
         let mut seen = Vec::new();
         for &(d, which) in &ds {
             let d = d.min(pca.singular_values.len());
@@ -36,12 +36,14 @@ pub(crate) fn measure(
                 continue;
             }
             seen.push(d);
-            let recon: Vec<Vec<f64>> =
-                z.chunks(u).map(|row| data.full_row(&pca.reconstruct(&pca.project(row, d)), is_scaled)).collect();
+            let recon: Vec<Vec<f64>> = z
+                .chunks(u)
+                .map(|row| data.scaling.full_row(&pca.reconstruct(&pca.project(row, d)), is_scaled))
+                .collect();
             let rig_sq: f64 = recon
                 .iter()
                 .zip(&originals)
-                .map(|(a, b)| data.used.iter().map(|&c| (a[c] - b[c]).powi(2)).sum::<f64>())
+                .map(|(a, b)| data.scaling.used.iter().map(|&c| (a[c] - b[c]).powi(2)).sum::<f64>())
                 .sum();
             let rig_rmse = (rig_sq / (recon.len() * u) as f64).sqrt();
             let mesh = match (rig, &truth) {
@@ -49,7 +51,7 @@ pub(crate) fn measure(
                 _ => None,
             };
             rows.push(PcaError {
-                label: data.label.clone(),
+                label: data.scaling.label.clone(),
                 variant: variant.into(),
                 d: d as i64,
                 which: which.into(),

@@ -12,8 +12,9 @@ use std::path::PathBuf;
 use clap::Parser;
 use reprise_artifact::controls::Controls;
 use reprise_artifact::frames::LabeledFrames;
-use reprise_artifact::pca::{self, PcaCoords, PcaModel, SCALED, UNSCALED};
+use reprise_artifact::pca::{self, PcaCoords, SCALED, UNSCALED};
 use reprise_artifact::scales::{self, Scale};
+use reprise_label_models::Scaling;
 use reprise_numerics::pca::{Pca, PcaParams};
 use reprise_stagekit::{StageError, StageResult};
 use serde::Serialize;
@@ -119,44 +120,18 @@ pub struct Summary {
     pub errors: Vec<pca::PcaError>,
 }
 
-/// The frames, the used controls and the transform of one label.
+/// One label's frames and its scaling.
 pub(crate) struct LabelData {
-    pub(crate) label: String,
     /// Row indices into the labeled frames.
     pub(crate) rows: Vec<usize>,
-    /// Indices (table columns) of the used controls.
-    pub(crate) used: Vec<usize>,
-    /// Per table control: mean and weight.
-    pub(crate) mean: Vec<f64>,
-    pub(crate) weight: Vec<f64>,
+    /// The label, its used controls and their transform.
+    pub(crate) scaling: Scaling,
 }
 
 impl LabelData {
     /// The label's frames restricted to used controls, scaled or not (row-major).
     pub(crate) fn matrix(&self, labeled: &LabeledFrames, scaled: bool) -> Vec<f64> {
-        self.rows
-            .iter()
-            .flat_map(|&r| {
-                let row = labeled.frames.row(r);
-                self.used.iter().map(move |&c| {
-                    if scaled {
-                        self.weight[c] * (row[c] - self.mean[c]) + self.mean[c]
-                    } else {
-                        row[c]
-                    }
-                })
-            })
-            .collect()
-    }
-
-    /// A full table row from a reconstructed used-control vector: unscale, and hold the
-    /// controls that are not modelled at their mean.
-    pub(crate) fn full_row(&self, used_values: &[f64], scaled: bool) -> Vec<f64> {
-        let mut row = self.mean.clone();
-        for (&c, &v) in self.used.iter().zip(used_values) {
-            row[c] = if scaled { (v - self.mean[c]) / self.weight[c] + self.mean[c] } else { v };
-        }
-        row
+        self.rows.iter().flat_map(|&r| self.scaling.values(labeled.frames.row(r), scaled)).collect()
     }
 }
 
@@ -164,53 +139,12 @@ fn label_data(labeled: &LabeledFrames, scales: &[Scale], path: &std::path::Path)
     let controls = &labeled.frames.controls;
     let mut out: Vec<LabelData> = Vec::new();
     for (r, l) in labeled.label.iter().enumerate() {
-        match out.iter_mut().find(|d| &d.label == l) {
+        match out.iter_mut().find(|d| &d.scaling.label == l) {
             Some(d) => d.rows.push(r),
-            None => {
-                let mine: Vec<&Scale> = scales.iter().filter(|s| &s.label == l).collect();
-                let lookup = |c: &String| {
-                    mine.iter().find(|s| &s.control == c).ok_or_else(|| {
-                        StageError::Input(format!(
-                            "{}: no scale for label `{l}`, control `{c}`; rerun scale",
-                            path.display()
-                        ))
-                    })
-                };
-                let per: Vec<&Scale> = controls.iter().map(|c| lookup(c).copied()).collect::<StageResult<_>>()?;
-                out.push(LabelData {
-                    label: l.clone(),
-                    rows: vec![r],
-                    used: (0..controls.len()).filter(|&c| per[c].used).collect(),
-                    mean: per.iter().map(|s| s.mean).collect(),
-                    weight: per.iter().map(|s| s.weight).collect(),
-                });
-            }
+            None => out.push(LabelData { rows: vec![r], scaling: Scaling::new(l, controls, scales, path)? }),
         }
     }
     Ok(out)
-}
-
-/// A model over all table controls from a PCA over the used ones.
-fn model(data: &LabelData, pca: &Pca, variant: &str, n: usize) -> PcaModel {
-    let d = pca.kept;
-    let mut directions = vec![0.0; d * n];
-    for k in 0..d {
-        for (j, &c) in data.used.iter().enumerate() {
-            directions[k * n + c] = pca.directions[k * data.used.len() + j];
-        }
-    }
-    let mut mean = data.mean.clone();
-    for (j, &c) in data.used.iter().enumerate() {
-        mean[c] = pca.mean[j];
-    }
-    PcaModel {
-        label: data.label.clone(),
-        variant: variant.into(),
-        mean,
-        directions,
-        singular_values: pca.singular_values[..d].to_vec(),
-        explained: pca.explained()[..d].to_vec(),
-    }
 }
 
 /// Runs the stage (or only validates, with `--check`).
@@ -233,40 +167,40 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     };
     let data = reprise_stagekit::wiring::only_partition(
         label_data(&labeled, &scales, &args.scales)?,
-        |d| &d.label,
+        |d| &d.scaling.label,
         args.partition.as_deref(),
         &args.labeled_frames,
     )?;
-    let n = labeled.frames.controls.len();
     let (mut models, mut coords, mut error_rows, mut labels) =
         (Vec::new(), PcaCoords::default(), Vec::new(), Vec::new());
     let bar = reprise_stagekit::progress(data.len() as u64, "pca");
     for d in &data {
         let fit = |scaled: bool| {
-            Pca::fit(&d.matrix(&labeled, scaled), d.used.len(), &args.params())
-                .map_err(|e| StageError::Numerical(format!("label `{}`: {e}", d.label)))
+            Pca::fit(&d.matrix(&labeled, scaled), d.scaling.used.len(), &args.params())
+                .map_err(|e| StageError::Numerical(format!("label `{}`: {e}", d.scaling.label)))
         };
         let (scaled, unscaled) = (fit(true)?, fit(false)?);
         for (variant, pca) in [(SCALED, &scaled), (UNSCALED, &unscaled)] {
             if variant == UNSCALED && !args.write_unscaled {
                 continue;
             }
-            models.push(model(d, pca, variant, n));
+            models.push(d.scaling.pca_model(pca, variant));
             let z = d.matrix(&labeled, variant == SCALED);
+            let u = d.scaling.used.len();
             for (i, &r) in d.rows.iter().enumerate() {
-                coords.label.push(d.label.clone());
+                coords.label.push(d.scaling.label.clone());
                 coords.variant.push(variant.into());
                 coords.segment_id.push(labeled.segment_id[r]);
                 coords.clip.push(labeled.frames.clip[r].clone());
                 coords.frame.push(labeled.frames.frame[r]);
-                coords.y.push(pca.project(&z[i * d.used.len()..(i + 1) * d.used.len()], pca.kept));
+                coords.y.push(pca.project(&z[i * u..(i + 1) * u], pca.kept));
             }
         }
         error_rows.extend(errors::measure(&labeled, d, &scaled, &unscaled, &args.fixed_d, rig.as_ref())?);
         labels.push(LabelSummary {
-            label: d.label.clone(),
+            label: d.scaling.label.clone(),
             frames: d.rows.len(),
-            controls: d.used.len(),
+            controls: d.scaling.used.len(),
             d: scaled.kept,
             explained: scaled.cumulative_explained()[scaled.kept - 1],
             d_unscaled: unscaled.kept,

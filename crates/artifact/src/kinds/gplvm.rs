@@ -23,7 +23,30 @@
 //! `beta` (SCG's scale; L-BFGS's accepted step length), `accepted`, `evaluations`
 //! (cumulative) and `seconds` (since the optimiser started).
 //!
-//! `gplvm_fits` — one row per label: see [`FitSummary`].
+//! `gplvm_fits` — one row per label ([`FitSummary`], written by [`write_fits`], read by
+//! [`read_fits`]):
+//!
+//! | column | type | meaning |
+//! |---|---|---|
+//! | `label` | Utf8 | the model |
+//! | `frames`, `d`, `q` | Int64 | training frames $N$, PCA dimension $d$, latent dimension $q$ |
+//! | `optimizer`, `connectivity_path` | Utf8 | `lbfgs`/`scg`; how the connectivity prior entered (`exact`, `staged`, `subset`, `coarse`) |
+//! | `stage_iterations` | Utf8 | iterations per stage, `"i"` or `"subset+exact"` |
+//! | `iterations`, `evaluations` | Int64 | optimiser iterations; objective evaluations |
+//! | `initial_objective`, `objective` | Float64 | $E$ at the start and at the optimum |
+//! | `neg_log_likelihood`, `dynamics`, `connectivity`, `signal` | Float64 | the terms of $E$ at the optimum |
+//! | `connectivity_exact` | Float64 | the exact connectivity prior at the optimum |
+//! | `grad_norm`, `rel_decrease`, `rel_gradient` | Float64 | $\lVert\nabla E\rVert_2$; the convergence rule's two measures (`rel_decrease` may be `inf`) |
+//! | `jitter`, `dynamics_jitter` | Float64 | jitter added to $K$ and to the dynamics prior's blocks |
+//! | `converged`, `stop_reason` | Boolean, Utf8 | whether a convergence test stopped the fit, and why it stopped |
+//! | `seconds` | Float64 | wall-clock seconds of the fit |
+//! | `heldout_gplvm_mesh_rmse` | Float64, nullable | held-out check (null when off): RMS vertex distance, mesh units, of the held-out frames through their best latent point of a GPLVM fitted without them, in a PCA basis fitted without them |
+//! | `heldout_pca_q_mesh_rmse`, `heldout_pca_d_mesh_rmse` | Float64, nullable | the same frames through that basis's first $q$ and all `heldout_d` components |
+//! | `heldout_d` | Int64 | the dimension of that basis: $d$, or fewer if the training frames span fewer (0 when off) |
+//! | `heldout_frames` | Int64 | held-out frames (0 when off) |
+//! | `generative_gplvm_mesh_rmse` | Float64, nullable | held-out frames whose previous and next frames are training frames, through the GPLVM at the midpoint of the neighbours' latents (null without such frames) |
+//! | `generative_interp_mesh_rmse` | Float64, nullable | the same frames as the midpoint of the neighbours' poses (linear interpolation of controls) |
+//! | `generative_frames` | Int64 | frames of the generative check (0 when off or none) |
 
 use std::path::Path;
 
@@ -38,7 +61,7 @@ pub const GPLVM_MODELS: Kind = Kind { name: "gplvm_models", version: 1 };
 /// Kind of the trace table.
 pub const GPLVM_TRACE: Kind = Kind { name: "gplvm_trace", version: 2 };
 /// Kind of the fit summary table.
-pub const GPLVM_FITS: Kind = Kind { name: "gplvm_fits", version: 2 };
+pub const GPLVM_FITS: Kind = Kind { name: "gplvm_fits", version: 3 };
 
 /// Per-frame latent points of every model.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -314,19 +337,36 @@ pub struct FitSummary {
     pub stop_reason: String,
     /// Wall-clock seconds of the fit.
     pub seconds: f64,
-    /// Held-out check (None when off): RMS mesh error of the held-out frames through
-    /// their best latent point of a model fitted without them …
+    /// Held-out check (None when off; the gplvm stage's `heldout` module): every K-th
+    /// frame is held out and the rest fit a PCA basis of `heldout_d` components and a
+    /// GPLVM in it. RMS vertex distance (mesh units) of the held-out frames to their
+    /// meshes through their best latent point …
     pub heldout_gplvm_mesh_rmse: Option<f64>,
-    /// … and through a PCA of the same training frames with q components.
-    pub heldout_pca_mesh_rmse: Option<f64>,
-    /// Held-out frames.
+    /// … through the first q components of that basis …
+    pub heldout_pca_q_mesh_rmse: Option<f64>,
+    /// … and through all `heldout_d` of them (the space the GPLVM models).
+    pub heldout_pca_d_mesh_rmse: Option<f64>,
+    /// Components of the held-out check's basis: `d`, or fewer when the training frames
+    /// span fewer (0 when off).
+    pub heldout_d: i64,
+    /// Held-out frames (0 when off).
     pub heldout_frames: i64,
+    /// Generative check (None when off or without such frames): RMS vertex distance of the
+    /// held-out frames whose previous and next frames (same segment) are training frames,
+    /// through the GPLVM at the midpoint of those neighbours' fitted latents …
+    pub generative_gplvm_mesh_rmse: Option<f64>,
+    /// … and as the midpoint of the neighbours' poses (linear interpolation of controls,
+    /// no model).
+    pub generative_interp_mesh_rmse: Option<f64>,
+    /// Frames of the generative check.
+    pub generative_frames: i64,
 }
 
 /// Writes the fit summaries atomically.
 pub fn write_fits(path: &Path, rows: &[FitSummary], provenance: &Provenance) -> Result<()> {
     let i = |f: fn(&FitSummary) -> i64| rows.iter().map(f).collect::<Vec<_>>();
     let x = |f: fn(&FitSummary) -> f64| rows.iter().map(f).collect::<Vec<_>>();
+    let o = |f: fn(&FitSummary) -> Option<f64>| rows.iter().map(f).collect::<Vec<_>>();
     let stage_iterations: Vec<String> =
         rows.iter().map(|r| r.stage_iterations.iter().map(i64::to_string).collect::<Vec<_>>().join("+")).collect();
     let stage_iterations: Vec<&str> = stage_iterations.iter().map(String::as_str).collect();
@@ -355,10 +395,88 @@ pub fn write_fits(path: &Path, rows: &[FitSummary], provenance: &Provenance) -> 
         .bool("converged", rows.iter().map(|r| r.converged).collect())
         .str("stop_reason", &rows.iter().map(|r| r.stop_reason.as_str()).collect::<Vec<_>>())
         .f64("seconds", x(|r| r.seconds))
-        .f64_opt("heldout_gplvm_mesh_rmse", rows.iter().map(|r| r.heldout_gplvm_mesh_rmse).collect())
-        .f64_opt("heldout_pca_mesh_rmse", rows.iter().map(|r| r.heldout_pca_mesh_rmse).collect())
-        .i64("heldout_frames", i(|r| r.heldout_frames));
+        .f64_opt("heldout_gplvm_mesh_rmse", o(|r| r.heldout_gplvm_mesh_rmse))
+        .f64_opt("heldout_pca_q_mesh_rmse", o(|r| r.heldout_pca_q_mesh_rmse))
+        .f64_opt("heldout_pca_d_mesh_rmse", o(|r| r.heldout_pca_d_mesh_rmse))
+        .i64("heldout_d", i(|r| r.heldout_d))
+        .i64("heldout_frames", i(|r| r.heldout_frames))
+        .f64_opt("generative_gplvm_mesh_rmse", o(|r| r.generative_gplvm_mesh_rmse))
+        .f64_opt("generative_interp_mesh_rmse", o(|r| r.generative_interp_mesh_rmse))
+        .i64("generative_frames", i(|r| r.generative_frames));
     crate::table::write(path, GPLVM_FITS, cols, provenance, &[])
+}
+
+/// Reads the fit summaries, in file order.
+pub fn read_fits(path: &Path) -> Result<Vec<FitSummary>> {
+    let t = Table::read(path, GPLVM_FITS)?;
+    let s = |name: &str| t.strings(name);
+    let (label, optimizer, connectivity_path, stages, stop_reason) =
+        (s("label")?, s("optimizer")?, s("connectivity_path")?, s("stage_iterations")?, s("stop_reason")?);
+    let (frames, d, q, iterations, evaluations) =
+        (t.i64("frames")?, t.i64("d")?, t.i64("q")?, t.i64("iterations")?, t.i64("evaluations")?);
+    let (initial_objective, objective, neg_log_likelihood) =
+        (t.f64("initial_objective")?, t.f64("objective")?, t.f64("neg_log_likelihood")?);
+    let (dynamics, connectivity, signal, connectivity_exact) =
+        (t.f64("dynamics")?, t.f64("connectivity")?, t.f64("signal")?, t.f64("connectivity_exact")?);
+    let (grad_norm, rel_decrease, rel_gradient) =
+        (t.f64("grad_norm")?, t.f64_any("rel_decrease")?, t.f64("rel_gradient")?);
+    let (jitter, dynamics_jitter, seconds, converged) =
+        (t.f64("jitter")?, t.f64("dynamics_jitter")?, t.f64("seconds")?, t.bool("converged")?);
+    let (held_g, held_q, held_d) = (
+        t.f64_opt("heldout_gplvm_mesh_rmse")?,
+        t.f64_opt("heldout_pca_q_mesh_rmse")?,
+        t.f64_opt("heldout_pca_d_mesh_rmse")?,
+    );
+    let (heldout_d, heldout_frames) = (t.i64("heldout_d")?, t.i64("heldout_frames")?);
+    let (gen_g, gen_i, gen_frames) = (
+        t.f64_opt("generative_gplvm_mesh_rmse")?,
+        t.f64_opt("generative_interp_mesh_rmse")?,
+        t.i64("generative_frames")?,
+    );
+    (0..t.rows())
+        .map(|r| {
+            let stage_iterations = stages[r]
+                .split('+')
+                .filter(|v| !v.is_empty())
+                .map(str::parse)
+                .collect::<std::result::Result<Vec<i64>, _>>()
+                .map_err(|_| t.invalid(format!("row {r}: stage_iterations `{}` is not \"i\" or \"i+j\"", stages[r])))?;
+            Ok(FitSummary {
+                label: label[r].clone(),
+                frames: frames[r],
+                d: d[r],
+                q: q[r],
+                optimizer: optimizer[r].clone(),
+                connectivity_path: connectivity_path[r].clone(),
+                stage_iterations,
+                iterations: iterations[r],
+                evaluations: evaluations[r],
+                initial_objective: initial_objective[r],
+                objective: objective[r],
+                neg_log_likelihood: neg_log_likelihood[r],
+                dynamics: dynamics[r],
+                connectivity: connectivity[r],
+                signal: signal[r],
+                connectivity_exact: connectivity_exact[r],
+                grad_norm: grad_norm[r],
+                rel_decrease: rel_decrease[r],
+                rel_gradient: rel_gradient[r],
+                jitter: jitter[r],
+                dynamics_jitter: dynamics_jitter[r],
+                converged: converged[r],
+                stop_reason: stop_reason[r].clone(),
+                seconds: seconds[r],
+                heldout_gplvm_mesh_rmse: held_g[r],
+                heldout_pca_q_mesh_rmse: held_q[r],
+                heldout_pca_d_mesh_rmse: held_d[r],
+                heldout_d: heldout_d[r],
+                heldout_frames: heldout_frames[r],
+                generative_gplvm_mesh_rmse: gen_g[r],
+                generative_interp_mesh_rmse: gen_i[r],
+                generative_frames: gen_frames[r],
+            })
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -402,5 +520,72 @@ mod tests {
         let path = dir.path().join("l.parquet");
         write_latents(&path, &latents, &prov()).unwrap();
         assert_eq!(read_latents(&path).unwrap(), latents);
+    }
+
+    /// Fit summaries come back as written: with the held-out and generative checks, with
+    /// the check off (nulls and zeros), with two fit stages, and an unfilled window's
+    /// `rel_decrease = inf`; a table of the previous version is refused.
+    #[test]
+    fn fits_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let on = FitSummary {
+            label: "happy".into(),
+            frames: 520,
+            d: 5,
+            q: 3,
+            optimizer: "lbfgs".into(),
+            connectivity_path: "coarse".into(),
+            stage_iterations: vec![1372],
+            iterations: 1372,
+            evaluations: 1400,
+            initial_objective: 9000.5,
+            objective: 3000.25,
+            neg_log_likelihood: 2900.0,
+            dynamics: 80.0,
+            connectivity: 19.0,
+            signal: 1.25,
+            connectivity_exact: 19.5,
+            grad_norm: 1e-3,
+            rel_decrease: 1e-10,
+            rel_gradient: 2e-6,
+            jitter: 1e-8,
+            dynamics_jitter: 0.0,
+            converged: true,
+            stop_reason: "converged".into(),
+            seconds: 11.1,
+            heldout_gplvm_mesh_rmse: Some(0.25),
+            heldout_pca_q_mesh_rmse: Some(0.4),
+            heldout_pca_d_mesh_rmse: Some(0.2),
+            heldout_d: 5,
+            heldout_frames: 52,
+            generative_gplvm_mesh_rmse: Some(0.3),
+            generative_interp_mesh_rmse: Some(0.1),
+            generative_frames: 50,
+        };
+        let off = FitSummary {
+            label: "roar".into(),
+            stage_iterations: vec![12, 34],
+            rel_decrease: f64::INFINITY,
+            converged: false,
+            stop_reason: "max-iterations".into(),
+            heldout_gplvm_mesh_rmse: None,
+            heldout_pca_q_mesh_rmse: None,
+            heldout_pca_d_mesh_rmse: None,
+            heldout_d: 0,
+            heldout_frames: 0,
+            generative_gplvm_mesh_rmse: None,
+            generative_interp_mesh_rmse: None,
+            generative_frames: 0,
+            ..on.clone()
+        };
+        let rows = vec![on, off];
+        let path = dir.path().join("f.parquet");
+        write_fits(&path, &rows, &prov()).unwrap();
+        assert_eq!(read_fits(&path).unwrap(), rows);
+        let old = dir.path().join("old.parquet");
+        let v2 = Kind { version: 2, ..GPLVM_FITS };
+        crate::table::write(&old, v2, Columns::new().str("label", &["a"]), &prov(), &[]).unwrap();
+        let e = read_fits(&old).unwrap_err().to_string();
+        assert!(e.contains("old.parquet"), "{e}");
     }
 }
