@@ -269,8 +269,18 @@ pub const CATALOGUE: &[MetricDef] = &[
         per: Per::Count,
         headline: false,
         family: true,
-        definition: "RMS vertex error of frames a model never saw",
+        definition: "per label, RMS vertex error of every K-th frame, left out of the PCA basis and of the fit: the \
+                     GPLVM (through the held-out frame's best latent point), PCA with q and with d components (systems \
+                     gplvm, pca-q, pca-d)",
     },
+    row(
+        "generative_mesh_rmse",
+        "mesh units",
+        Direction::Lower,
+        Per::Count,
+        "per label, RMS vertex error of held-out frames whose neighbours were fitted: the GPLVM at the midpoint of the \
+         neighbours' latents (gplvm) against the midpoint of their poses (interpolation)",
+    ),
     MetricDef {
         id: "ablation_mesh_rmse",
         unit: "mesh units",

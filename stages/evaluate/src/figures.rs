@@ -8,7 +8,7 @@ use std::path::Path;
 
 use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::transitions::Request;
-use reprise_artifact::{bridges, curves, Table};
+use reprise_artifact::{bridges, curves};
 use reprise_numerics::gplvm::LatentModel;
 use reprise_stagekit::rig::meshes;
 use reprise_stagekit::StageResult;
@@ -211,13 +211,12 @@ pub fn missing(systems: &[System], requests: &[Request], labels: &[String]) -> V
 
 /// Per label (in file order) the objective by iteration, from a `gplvm_trace` table.
 fn traces(path: &Path) -> StageResult<Vec<html::Trace>> {
-    let t = Table::read(path, reprise_artifact::gplvm::GPLVM_TRACE)?;
-    let (label, iteration, value) = (t.strings("label")?, t.i64("iteration")?, t.f64("value")?);
+    let t = reprise_artifact::gplvm::read_trace(path)?;
     let mut out: Vec<html::Trace> = Vec::new();
-    for r in 0..t.rows() {
-        match out.iter_mut().find(|(l, _)| *l == label[r]) {
-            Some((_, v)) => v.push((iteration[r], value[r])),
-            None => out.push((label[r].clone(), vec![(iteration[r], value[r])])),
+    for ((label, iteration), value) in t.label.iter().zip(&t.iteration).zip(&t.value) {
+        match out.iter_mut().find(|(l, _)| l == label) {
+            Some((_, v)) => v.push((*iteration, *value)),
+            None => out.push((label.clone(), vec![(*iteration, *value)])),
         }
     }
     Ok(out)
@@ -225,35 +224,27 @@ fn traces(path: &Path) -> StageResult<Vec<html::Trace>> {
 
 /// Per label (in file order) the fit summary, from a `gplvm_fits` table.
 fn fit_rows(path: &Path) -> StageResult<Vec<html::FitRow>> {
-    let t = Table::read(path, reprise_artifact::gplvm::GPLVM_FITS)?;
-    let (label, path_name, optimizer, stages) =
-        (t.strings("label")?, t.strings("connectivity_path")?, t.strings("optimizer")?, t.strings("stage_iterations")?);
-    let (frames, d, evaluations) = (t.i64("frames")?, t.i64("d")?, t.i64("evaluations")?);
-    let (seconds, objective, likelihood) = (t.f64("seconds")?, t.f64("objective")?, t.f64("neg_log_likelihood")?);
-    let (dynamics, connectivity, signal) = (t.f64("dynamics")?, t.f64("connectivity")?, t.f64("signal")?);
-    let (exact, rel_decrease, rel_gradient) =
-        (t.f64("connectivity_exact")?, t.f64("rel_decrease")?, t.f64("rel_gradient")?);
-    let (converged, stop) = (t.bool("converged")?, t.strings("stop_reason")?);
-    Ok((0..t.rows())
-        .map(|r| html::FitRow {
-            label: label[r].clone(),
-            frames: frames[r],
-            d: d[r],
-            path: path_name[r].clone(),
-            optimizer: optimizer[r].clone(),
-            iterations: stages[r].clone(),
-            evaluations: evaluations[r],
-            seconds: seconds[r],
-            objective: objective[r],
-            likelihood: likelihood[r],
-            dynamics: dynamics[r],
-            connectivity: connectivity[r],
-            signal: signal[r],
-            connectivity_exact: exact[r],
-            converged: converged[r],
-            stop_reason: stop[r].clone(),
-            rel_decrease: rel_decrease[r],
-            rel_gradient: rel_gradient[r],
+    Ok(reprise_artifact::gplvm::read_fits(path)?
+        .into_iter()
+        .map(|f| html::FitRow {
+            iterations: f.stage_iterations.iter().map(i64::to_string).collect::<Vec<_>>().join("+"),
+            label: f.label,
+            frames: f.frames,
+            d: f.d,
+            path: f.connectivity_path,
+            optimizer: f.optimizer,
+            evaluations: f.evaluations,
+            seconds: f.seconds,
+            objective: f.objective,
+            likelihood: f.neg_log_likelihood,
+            dynamics: f.dynamics,
+            connectivity: f.connectivity,
+            signal: f.signal,
+            connectivity_exact: f.connectivity_exact,
+            converged: f.converged,
+            stop_reason: f.stop_reason,
+            rel_decrease: f.rel_decrease,
+            rel_gradient: f.rel_gradient,
         })
         .collect())
 }

@@ -517,17 +517,28 @@ fn transition_points(
     Ok(out)
 }
 
-/// Held-out errors of the GPLVM and PCA fits, and the scaling ablation.
+/// The model checks of the gplvm stage (held-out errors of the GPLVM, PCA-q and PCA-d;
+/// the generative check against interpolation) and the scaling ablation of the pca stage.
 fn model_quality(fits_path: &Path, errors_path: &Path) -> StageResult<Vec<Metric>> {
     let mut out = Vec::new();
-    let fits = Table::read(fits_path, reprise_artifact::gplvm::GPLVM_FITS)?;
-    let (fl, fg, fp) =
-        (fits.strings("label")?, fits.f64_opt("heldout_gplvm_mesh_rmse")?, fits.f64_opt("heldout_pca_mesh_rmse")?);
-    let held = fits.i64("heldout_frames")?;
-    for r in 0..fits.rows() {
-        if let (Some(g), Some(p)) = (fg[r], fp[r]) {
-            out.push(exact("gplvm", "heldout_mesh_rmse", &fl[r], "", g, held[r].max(0) as usize, "mesh units"));
-            out.push(exact("pca", "heldout_mesh_rmse", &fl[r], "", p, held[r].max(0) as usize, "mesh units"));
+    for f in gplvm::read_fits(fits_path)? {
+        let held = f.heldout_frames.max(0) as usize;
+        let heldout = [
+            ("gplvm", f.heldout_gplvm_mesh_rmse),
+            ("pca-q", f.heldout_pca_q_mesh_rmse),
+            ("pca-d", f.heldout_pca_d_mesh_rmse),
+        ];
+        for (variant, v) in heldout {
+            if let Some(v) = v {
+                out.push(exact(variant, "heldout_mesh_rmse", &f.label, "", v, held, "mesh units"));
+            }
+        }
+        let generated = f.generative_frames.max(0) as usize;
+        for (variant, v) in [("gplvm", f.generative_gplvm_mesh_rmse), ("interpolation", f.generative_interp_mesh_rmse)]
+        {
+            if let Some(v) = v {
+                out.push(exact(variant, "generative_mesh_rmse", &f.label, "", v, generated, "mesh units"));
+            }
         }
     }
     let errs = Table::read(errors_path, reprise_artifact::pca::PCA_ERRORS)?;

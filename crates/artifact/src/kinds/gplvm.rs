@@ -282,6 +282,21 @@ pub fn write_trace(path: &Path, t: &Trace, provenance: &Provenance) -> Result<()
     crate::table::write(path, GPLVM_TRACE, cols, provenance, &[])
 }
 
+/// Reads the traces as [`write_trace`] wrote them (β may be infinite: read as it is).
+pub fn read_trace(path: &Path) -> Result<Trace> {
+    let t = Table::read(path, GPLVM_TRACE)?;
+    Ok(Trace {
+        label: t.strings("label")?,
+        iteration: t.i64("iteration")?.to_vec(),
+        value: t.f64("value")?.to_vec(),
+        grad_norm: t.f64_any("grad_norm")?.to_vec(),
+        beta: t.f64_any("beta")?.to_vec(),
+        accepted: t.bool("accepted")?,
+        evaluations: t.i64("evaluations")?.to_vec(),
+        seconds: t.f64("seconds")?.to_vec(),
+    })
+}
+
 /// One label's fit summary (a row of `gplvm_fits`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FitSummary {
@@ -485,6 +500,25 @@ mod tests {
 
     fn prov() -> Provenance {
         Provenance::new("test", "0", serde_json::json!({}))
+    }
+
+    /// Traces of two labels come back as written, an infinite β included.
+    #[test]
+    fn traces_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let t = Trace {
+            label: vec!["a".into(), "a".into(), "b".into()],
+            iteration: vec![1, 2, 1],
+            value: vec![3.0, 2.5, 7.0],
+            grad_norm: vec![1.0, 0.5, 2.0],
+            beta: vec![1e-3, f64::INFINITY, 0.5],
+            accepted: vec![true, false, true],
+            evaluations: vec![2, 4, 2],
+            seconds: vec![0.1, 0.2, 0.1],
+        };
+        let path = dir.path().join("trace.parquet");
+        write_trace(&path, &t, &prov()).unwrap();
+        assert_eq!(read_trace(&path).unwrap(), t);
     }
 
     /// Models of different d and N, and latents, come back as written; a model table whose
