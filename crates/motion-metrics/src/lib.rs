@@ -120,58 +120,46 @@ pub fn quantile(values: &[f64], q: f64) -> f64 {
     v[lo] + (pos - lo as f64) * (v[hi] - v[lo])
 }
 
-/// $\sum_i (a_i - b_i)^2$ over the common length, summed in four interleaved lanes (so the
-/// compiler can keep them in vector registers; the order of the additions differs from a
-/// left-to-right sum only by rounding).
-pub fn squared_distance(a: &[f64], b: &[f64]) -> f64 {
+/// $\sum_i (a_i - b_i)^2$ over the common length of `a` and `b`, each element taken to `T`
+/// by `ta` / `tb`, summed in `L` interleaved lanes (so the compiler can keep them in vector
+/// registers; the order of the additions differs from a left-to-right sum only by rounding).
+fn lane_sum<A: Copy, B: Copy, T, const L: usize>(a: &[A], b: &[B], ta: impl Fn(A) -> T, tb: impl Fn(B) -> T) -> T
+where
+    T: Copy + Default + std::ops::Add<Output = T> + std::ops::Sub<Output = T> + std::ops::Mul<Output = T>,
+{
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
-    let mut lanes = [0.0f64; 4];
-    let (ac, bc) = (a.chunks_exact(4), b.chunks_exact(4));
+    let mut lanes = [T::default(); L];
+    let (ac, bc) = (a.chunks_exact(L), b.chunks_exact(L));
     let (ar, br) = (ac.remainder(), bc.remainder());
     for (x, y) in ac.zip(bc) {
-        for k in 0..4 {
-            let d = x[k] - y[k];
-            lanes[k] += d * d;
+        for k in 0..L {
+            let d = ta(x[k]) - tb(y[k]);
+            lanes[k] = lanes[k] + d * d;
         }
     }
-    let tail: f64 = ar.iter().zip(br).map(|(x, y)| (x - y) * (x - y)).sum();
-    (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]) + tail
+    let tail = ar.iter().zip(br).fold(T::default(), |s, (x, y)| {
+        let d = ta(*x) - tb(*y);
+        s + d * d
+    });
+    lanes.iter().fold(T::default(), |s, l| s + *l) + tail
+}
+
+/// $\sum_i (a_i - b_i)^2$ over the common length, summed in four interleaved lanes (vector
+/// registers; the order of the additions differs from a left-to-right sum only by rounding).
+pub fn squared_distance(a: &[f64], b: &[f64]) -> f64 {
+    lane_sum::<_, _, f64, 4>(a, b, |x| x, |y| y)
 }
 
 /// [`squared_distance`] between single-precision `a` and double-precision `b`.
 pub fn squared_distance_f32(a: &[f32], b: &[f64]) -> f64 {
-    let n = a.len().min(b.len());
-    let (a, b) = (&a[..n], &b[..n]);
-    let mut lanes = [0.0f64; 4];
-    let (ac, bc) = (a.chunks_exact(4), b.chunks_exact(4));
-    let (ar, br) = (ac.remainder(), bc.remainder());
-    for (x, y) in ac.zip(bc) {
-        for k in 0..4 {
-            let d = f64::from(x[k]) - y[k];
-            lanes[k] += d * d;
-        }
-    }
-    let tail: f64 = ar.iter().zip(br).map(|(x, y)| (f64::from(*x) - y).powi(2)).sum();
-    (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]) + tail
+    lane_sum::<_, _, f64, 4>(a, b, f64::from, |y| y)
 }
 
 /// [`squared_distance`] between two single-precision vectors, summed in single precision
 /// in eight lanes (for orderings and bounds, not for reported distances).
 pub fn squared_distance_f32s(a: &[f32], b: &[f32]) -> f64 {
-    let n = a.len().min(b.len());
-    let (a, b) = (&a[..n], &b[..n]);
-    let mut lanes = [0.0f32; 8];
-    let (ac, bc) = (a.chunks_exact(8), b.chunks_exact(8));
-    let (ar, br) = (ac.remainder(), bc.remainder());
-    for (x, y) in ac.zip(bc) {
-        for k in 0..8 {
-            let d = x[k] - y[k];
-            lanes[k] += d * d;
-        }
-    }
-    let tail: f32 = ar.iter().zip(br).map(|(x, y)| (x - y) * (x - y)).sum();
-    f64::from(lanes.iter().sum::<f32>() + tail)
+    f64::from(lane_sum::<_, _, f32, 8>(a, b, |x| x, |y| y))
 }
 
 /// The distance from `x` to the nearest of the rows of `set` (`rows × dim`).
