@@ -37,6 +37,7 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
             f.heldout_pca_d_mesh_rmse,
             f.generative_gplvm_mesh_rmse,
             f.generative_interp_mesh_rmse,
+            f.generative_interp_d_mesh_rmse,
         ];
         assert!(errors.iter().all(|v| v.is_some_and(|v| v.is_finite() && v > 0.0)), "{f:?}");
         assert!((1..=f.d).contains(&f.heldout_d) && f.heldout_frames > 0, "{f:?}");

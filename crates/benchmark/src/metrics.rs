@@ -279,7 +279,8 @@ pub const CATALOGUE: &[MetricDef] = &[
         Direction::Lower,
         Per::Count,
         "per label, RMS vertex error of held-out frames whose neighbours were fitted: the GPLVM at the midpoint of the \
-         neighbours' latents (gplvm) against the midpoint of their poses (interpolation)",
+         neighbours' latents (gplvm) against the midpoint of their poses (interpolation) and of their coordinates in \
+         the PCA-d basis the GPLVM models (interpolation-d: the same floor as the GPLVM's)",
     ),
     MetricDef {
         id: "ablation_mesh_rmse",

@@ -534,8 +534,12 @@ fn model_quality(fits_path: &Path, errors_path: &Path) -> StageResult<Vec<Metric
             }
         }
         let generated = f.generative_frames.max(0) as usize;
-        for (variant, v) in [("gplvm", f.generative_gplvm_mesh_rmse), ("interpolation", f.generative_interp_mesh_rmse)]
-        {
+        let generative = [
+            ("gplvm", f.generative_gplvm_mesh_rmse),
+            ("interpolation", f.generative_interp_mesh_rmse),
+            ("interpolation-d", f.generative_interp_d_mesh_rmse),
+        ];
+        for (variant, v) in generative {
             if let Some(v) = v {
                 out.push(exact(variant, "generative_mesh_rmse", &f.label, "", v, generated, "mesh units"));
             }

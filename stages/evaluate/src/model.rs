@@ -373,12 +373,13 @@ pub fn paired(m: &[Metric], ctx: &Context<'_>) -> Table {
 
 /// Held-out model quality and the scaling ablation, per label.
 pub fn quality(m: &[Metric], ctx: &Context<'_>) -> Table {
-    let cols: [(&str, &str, &str); 7] = [
+    let cols: [(&str, &str, &str); 8] = [
         ("held-out GPLVM", "gplvm", "heldout_mesh_rmse"),
         ("held-out PCA-q", "pca-q", "heldout_mesh_rmse"),
         ("held-out PCA-d", "pca-d", "heldout_mesh_rmse"),
         ("generative GPLVM", "gplvm", "generative_mesh_rmse"),
         ("generative interpolation", "interpolation", "generative_mesh_rmse"),
+        ("generative interpolation in PCA-d", "interpolation-d", "generative_mesh_rmse"),
         ("PCA d = 3, scaled", "scaled", "ablation_mesh_rmse"),
         ("PCA d = 3, unscaled", "unscaled", "ablation_mesh_rmse"),
     ];

@@ -23,7 +23,9 @@
 //! 4. **Generative.** Each $i \in H$ whose previous and next frames in its segment are
 //!    training rows $a, b$, with fitted latents $x_a, x_b$:
 //!    $\hat p_i = g_T(\bar y + \mu(\tfrac12(x_a + x_b)))$, beside the reference without a
-//!    model, $\hat p_i = \tfrac12(p_a + p_b)$ (linear interpolation of controls).
+//!    model, $\hat p_i = \tfrac12(p_a + p_b)$ (linear interpolation of controls), and the
+//!    same interpolation confined to the space the GPLVM models,
+//!    $\hat p_i = g_T(\tfrac12(y_a + y_b))$, whose floor is PCA-d's as the GPLVM's is.
 //!
 //! Every error is the RMS vertex distance to the frames' own meshes through the rig $e$,
 //! $\sqrt{\sum_i\sum_v\lVert e_v(\hat p_i) - e_v(p_i)\rVert^2 / (n V)}$ over the $n$ frames
@@ -67,6 +69,8 @@ pub(crate) struct Heldout {
     pub(crate) generative_gplvm_rmse: Option<f64>,
     /// The generative frames as their neighbours' mid-pose.
     pub(crate) generative_interp_rmse: Option<f64>,
+    /// The generative frames as their neighbours' mid-coordinates in the check's basis.
+    pub(crate) generative_interp_d_rmse: Option<f64>,
     /// Frames of the generative check.
     pub(crate) generative_frames: usize,
 }
@@ -227,8 +231,16 @@ impl<'a> Checker<'a> {
             between.iter().map(|(_, _, [ja, jb])| g(&mid(latent(*ja), latent(*jb)))).collect();
         let gen_interp: Vec<Vec<f64>> =
             between.iter().map(|(_, [a, b], _)| mid(&originals[*a], &originals[*b])).collect();
+        let gen_interp_d: Vec<Vec<f64>> = between
+            .iter()
+            .map(|(_, [a, b], _)| {
+                let mut p = vec![0.0; model.controls()];
+                model.map.apply(&mid(y(*a), y(*b)), &mut p);
+                p
+            })
+            .collect();
         let gen_truth: Vec<Vec<f64>> = between.iter().map(|(i, _, _)| originals[*i].clone()).collect();
-        let generative = self.errors(&gen_truth, &[&gen_gplvm, &gen_interp])?;
+        let generative = self.errors(&gen_truth, &[&gen_gplvm, &gen_interp, &gen_interp_d])?;
 
         Ok(Heldout {
             gplvm_rmse: held[0],
@@ -238,6 +250,7 @@ impl<'a> Checker<'a> {
             frames: test.len(),
             generative_gplvm_rmse: generative[0],
             generative_interp_rmse: generative[1],
+            generative_interp_d_rmse: generative[2],
             generative_frames: between.len(),
         })
     }
@@ -433,6 +446,9 @@ mod tests {
         assert_eq!((h.frames, h.generative_frames), (13, 11));
         let interp = h.generative_interp_rmse.unwrap();
         assert!(interp < 1e-12, "interpolation {interp}");
+        // The two segments span 3 dimensions, all in the basis: interpolating there is exact too.
+        let interp_d = h.generative_interp_d_rmse.unwrap();
+        assert!(interp_d < 1e-9, "interpolation in PCA-d {interp_d}");
         // The model is not exact here (q = 2 < d = 3), but smooth in time: its midpoint
         // frame is nearer than one frame's motion (the smaller segment's, mesh RMS).
         let step = |u: &[f64; 6]| 0.1 * (u.iter().map(|v| v * v).sum::<f64>() / 2.0).sqrt();

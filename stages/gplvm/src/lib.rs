@@ -538,6 +538,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
                     heldout_frames: held.map_or(0, |h| h.frames as i64),
                     generative_gplvm_mesh_rmse: held.and_then(|h| h.generative_gplvm_rmse),
                     generative_interp_mesh_rmse: held.and_then(|h| h.generative_interp_rmse),
+                    generative_interp_d_mesh_rmse: held.and_then(|h| h.generative_interp_d_rmse),
                     generative_frames: held.map_or(0, |h| h.generative_frames as i64),
                 };
                 Ok((fit, summary))

@@ -46,6 +46,7 @@
 //! | `heldout_frames` | Int64 | held-out frames (0 when off) |
 //! | `generative_gplvm_mesh_rmse` | Float64, nullable | held-out frames whose previous and next frames are training frames, through the GPLVM at the midpoint of the neighbours' latents (null without such frames) |
 //! | `generative_interp_mesh_rmse` | Float64, nullable | the same frames as the midpoint of the neighbours' poses (linear interpolation of controls) |
+//! | `generative_interp_d_mesh_rmse` | Float64, nullable | the same frames as the midpoint of the neighbours' coordinates in the check's PCA basis: interpolation confined to the space the GPLVM models (its floor is PCA-d's, like the GPLVM's) |
 //! | `generative_frames` | Int64 | frames of the generative check (0 when off or none) |
 
 use std::path::Path;
@@ -373,6 +374,9 @@ pub struct FitSummary {
     /// … and as the midpoint of the neighbours' poses (linear interpolation of controls,
     /// no model).
     pub generative_interp_mesh_rmse: Option<f64>,
+    /// … and as the midpoint of the neighbours' coordinates in the check's basis
+    /// (interpolation in the space the GPLVM models, with the same PCA-d floor).
+    pub generative_interp_d_mesh_rmse: Option<f64>,
     /// Frames of the generative check.
     pub generative_frames: i64,
 }
@@ -417,6 +421,7 @@ pub fn write_fits(path: &Path, rows: &[FitSummary], provenance: &Provenance) -> 
         .i64("heldout_frames", i(|r| r.heldout_frames))
         .f64_opt("generative_gplvm_mesh_rmse", o(|r| r.generative_gplvm_mesh_rmse))
         .f64_opt("generative_interp_mesh_rmse", o(|r| r.generative_interp_mesh_rmse))
+        .f64_opt("generative_interp_d_mesh_rmse", o(|r| r.generative_interp_d_mesh_rmse))
         .i64("generative_frames", i(|r| r.generative_frames));
     crate::table::write(path, GPLVM_FITS, cols, provenance, &[])
 }
@@ -443,9 +448,10 @@ pub fn read_fits(path: &Path) -> Result<Vec<FitSummary>> {
         t.f64_opt("heldout_pca_d_mesh_rmse")?,
     );
     let (heldout_d, heldout_frames) = (t.i64("heldout_d")?, t.i64("heldout_frames")?);
-    let (gen_g, gen_i, gen_frames) = (
+    let (gen_g, gen_i, gen_id, gen_frames) = (
         t.f64_opt("generative_gplvm_mesh_rmse")?,
         t.f64_opt("generative_interp_mesh_rmse")?,
+        t.f64_opt("generative_interp_d_mesh_rmse")?,
         t.i64("generative_frames")?,
     );
     (0..t.rows())
@@ -488,6 +494,7 @@ pub fn read_fits(path: &Path) -> Result<Vec<FitSummary>> {
                 heldout_frames: heldout_frames[r],
                 generative_gplvm_mesh_rmse: gen_g[r],
                 generative_interp_mesh_rmse: gen_i[r],
+                generative_interp_d_mesh_rmse: gen_id[r],
                 generative_frames: gen_frames[r],
             })
         })
@@ -594,6 +601,7 @@ mod tests {
             heldout_frames: 52,
             generative_gplvm_mesh_rmse: Some(0.3),
             generative_interp_mesh_rmse: Some(0.1),
+            generative_interp_d_mesh_rmse: Some(0.15),
             generative_frames: 50,
         };
         let off = FitSummary {
@@ -609,6 +617,7 @@ mod tests {
             heldout_frames: 0,
             generative_gplvm_mesh_rmse: None,
             generative_interp_mesh_rmse: None,
+            generative_interp_d_mesh_rmse: None,
             generative_frames: 0,
             ..on.clone()
         };

@@ -56,12 +56,12 @@ fn heldout_table(fits: &[reprise_artifact::gplvm::FitSummary]) {
         "held-out frames, basis fitted without them (mesh RMS); generative: held-out frames between two training frames"
     );
     eprintln!(
-        "{:<12} {:>3} {:>6} {:>8} {:>8} {:>8}  {:>6} {:>8} {:>8}",
-        "label", "d", "frames", "GPLVM", "PCA-q", "PCA-d", "frames", "GPLVM", "interp"
+        "{:<12} {:>3} {:>6} {:>8} {:>8} {:>8}  {:>6} {:>8} {:>8} {:>8}",
+        "label", "d", "frames", "GPLVM", "PCA-q", "PCA-d", "frames", "GPLVM", "interp", "interp-d"
     );
     for f in fits {
         eprintln!(
-            "{:<12} {:>3} {:>6} {:>8} {:>8} {:>8}  {:>6} {:>8} {:>8}",
+            "{:<12} {:>3} {:>6} {:>8} {:>8} {:>8}  {:>6} {:>8} {:>8} {:>8}",
             f.label,
             f.heldout_d,
             f.heldout_frames,
@@ -70,7 +70,8 @@ fn heldout_table(fits: &[reprise_artifact::gplvm::FitSummary]) {
             v(f.heldout_pca_d_mesh_rmse),
             f.generative_frames,
             v(f.generative_gplvm_mesh_rmse),
-            v(f.generative_interp_mesh_rmse)
+            v(f.generative_interp_mesh_rmse),
+            v(f.generative_interp_d_mesh_rmse)
         );
     }
 }
