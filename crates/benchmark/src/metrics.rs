@@ -116,8 +116,10 @@ pub const CATALOGUE: &[MetricDef] = &[
         "perceived_latency_s",
         "s",
         Direction::Lower,
-        Per::Arrived,
-        "seconds from the request to arrival (the first frame of the B-like run), per request that arrived",
+        Per::Request,
+        "restricted mean time to arrival: per request, the seconds from the request to arrival (the first frame of \
+         the B-like run), counted as the latency horizon τ when it comes later, never comes, or the request is not \
+         answered — every request, the same τ for every system, so no system is averaged over its own subset",
     ),
     headline(
         "success",
@@ -143,12 +145,13 @@ pub const CATALOGUE: &[MetricDef] = &[
         "as discontinuity_accel, for the peak vertex jerk",
     ),
     headline(
-        "liveliness_ratio",
-        "× B's training mean",
-        Direction::TowardOne,
+        "liveliness_error",
+        "abs. ln ratio",
+        Direction::Lower,
         Per::Answered,
-        "mean per-frame RMS vertex speed after the request, divided by the mean over B's training frames (1: as \
-         lively as B; a frozen character scores near 0, a jittering one above 1)",
+        "per request, the absolute natural log of its liveliness ratio r (r floored at 0.01): 0 when the answer moves as much as B's \
+         training frames, the same for twice as fast as for half as fast, and a frozen answer and a jittering one \
+         cannot average out",
     ),
     headline(
         "liveliness_ks",
@@ -181,6 +184,21 @@ pub const CATALOGUE: &[MetricDef] = &[
         Per::Answered,
         "per request, the mean over frames of the RMS vertex distance between the answer and the answer under \
          another seed (0 for a system without a seed)",
+    ),
+    row(
+        "liveliness_ratio",
+        "× B's training mean",
+        Direction::NotRanked("its mean lets frozen and jittering answers cancel; liveliness_error ranks them"),
+        Per::Answered,
+        "mean per-frame RMS vertex speed after the request, divided by the mean over B's training frames (1: as \
+         lively as B; a frozen character scores near 0, a jittering one above 1)",
+    ),
+    row(
+        "perceived_latency_arrived_s",
+        "s",
+        Direction::NotRanked("a subset of the requests that differs by system; perceived_latency_s ranks them all"),
+        Per::Arrived,
+        "seconds from the request to arrival, over the requests that arrived (not censored)",
     ),
     row(
         "switch_latency_s",
@@ -382,8 +400,11 @@ mod tests {
     fn ids_are_unique_and_families_resolve() {
         for (i, a) in CATALOGUE.iter().enumerate() {
             assert!(CATALOGUE[i + 1..].iter().all(|b| b.id != a.id), "{} twice", a.id);
+            // A pipe would split a cell of the reference table.
+            assert!(![a.id, a.unit, a.definition].iter().any(|t| t.contains('|')), "{}: a `|`", a.id);
         }
-        assert_eq!(find("perceived_latency_s").unwrap().per, Per::Arrived);
+        assert_eq!(find("perceived_latency_s").unwrap().per, Per::Request);
+        assert_eq!(find("perceived_latency_arrived_s").unwrap().per, Per::Arrived);
         assert_eq!(find("plausibility_raw_mesh_settle").unwrap().id, "plausibility_");
         // A headline member of a family is found as itself, not as the family.
         assert!(find("plausibility_floor_mesh").unwrap().headline);
@@ -398,7 +419,9 @@ mod tests {
         let unranked: Vec<&str> =
             headlines().filter(|m| matches!(m.direction, Direction::NotRanked(_))).map(|m| m.id).collect();
         assert_eq!(unranked, ["variety"]);
-        for id in ["perceived_latency_s", "answered", "coverage", "discontinuity_accel", "liveliness_ks"] {
+        for id in
+            ["perceived_latency_s", "answered", "coverage", "discontinuity_accel", "liveliness_ks", "liveliness_error"]
+        {
             assert!(find(id).unwrap().headline, "{id}");
         }
     }

@@ -87,14 +87,14 @@ impl Ranking {
         if tied.len() > 1 {
             return Ranking { metric, order, verdict: Verdict::Tie(tied) };
         }
+        // A CI of one observation has no width: it cannot make a win clear.
         let interval = |m: &Metric| match (m.ci_low, m.ci_high) {
-            (Some(lo), Some(hi)) => metric.direction.badness_interval(lo, hi),
+            (Some(lo), Some(hi)) if m.n >= 2 => metric.direction.badness_interval(lo, hi),
             _ => None,
         };
         let clear = match (interval(v[0].1), interval(v[1].1)) {
             (Some((_, a_hi)), Some((b_lo, _))) => a_hi < b_lo,
-            // Without CIs (exact values), a strictly better value is clear.
-            _ => true,
+            _ => false,
         };
         Ranking { metric, order, verdict: Verdict::Best { system: v[0].0.to_string(), clear } }
     }
@@ -214,6 +214,17 @@ mod tests {
 
     const ALL: [&str; 4] = ["reprise", "baseline", "motion-matching", "crossfade"];
 
+    /// A ratio ranked toward 1 (the per-phase liveliness ratios' direction).
+    static TOWARD_ONE: MetricDef = MetricDef {
+        id: "liveliness_ratio",
+        unit: "",
+        direction: Direction::TowardOne,
+        per: crate::metrics::Per::Answered,
+        headline: false,
+        family: false,
+        definition: "",
+    };
+
     /// A system whose latency is short by design is ranked like any other: the crossfade's
     /// 0.04 s wins clear of motion matching's 0.06 s.
     #[test]
@@ -242,6 +253,12 @@ mod tests {
         );
         let m = vec![row("reprise", "answered", 1.0, 1.0, 1.0), row("crossfade", "answered", f64::NAN, 0.0, 0.0)];
         assert!(matches!(Ranking::new(&m, &ALL, def("answered")).verdict, Verdict::NotRanked(_)));
+        // One observation's zero-width CI does not make a clear win.
+        let mut lone = row("reprise", "discontinuity_accel", 0.2, 0.2, 0.2);
+        lone.n = 1;
+        let m = vec![lone, row("baseline", "discontinuity_accel", 0.5, 0.45, 0.55)];
+        let r = Ranking::new(&m, &ALL, def("discontinuity_accel"));
+        assert_eq!(r.verdict, Verdict::Best { system: "reprise".into(), clear: false });
         let m = vec![row("reprise", "variety", 1.0, 0.9, 1.1), row("baseline", "variety", 2.0, 1.9, 2.1)];
         assert!(matches!(Ranking::new(&m, &ALL, def("variety")).verdict, Verdict::NotRanked(_)));
     }
@@ -254,7 +271,7 @@ mod tests {
             row("baseline", "liveliness_ratio", 1.1, 1.0, 1.2),
             row("crossfade", "liveliness_ratio", 3.0, 2.5, 3.5),
         ];
-        let r = Ranking::new(&m, &ALL, def("liveliness_ratio"));
+        let r = Ranking::new(&m, &ALL, &TOWARD_ONE);
         assert_eq!(r.order, ["baseline", "crossfade", "reprise"]);
         assert_eq!(r.verdict, Verdict::Best { system: "baseline".into(), clear: true });
     }

@@ -76,17 +76,29 @@ pub fn liveliness_name(measure: &str, phase: Option<Phase>) -> String {
     }
 }
 
+/// The liveliness ratio below which `liveliness_error` counts an answer as this still (so a
+/// frozen answer scores $\lvert\ln 0.01\rvert \approx 4.6$, not infinity).
+pub const LIVELINESS_FLOOR: f64 = 0.01;
+
+/// Request `p`'s perceived latency censored at `horizon` (s): the restricted time to
+/// arrival, `horizon` for an answer that arrives later or never (and, in
+/// [`system_rows`], for an unanswered request).
+pub fn censored_latency(p: Option<&Measured>, horizon: f64) -> f64 {
+    p.and_then(|p| p.perceived_latency).map_or(horizon, |l| l.min(horizon))
+}
+
 /// Every per-request measure, by metric id, with its unit.
 pub fn per_request() -> Vec<(String, &'static str)> {
     let unit = |id: &str| metrics::find(id).map_or("", |m| m.unit);
     let mut v: Vec<(String, &'static str)> = [
-        "perceived_latency_s",
+        "perceived_latency_arrived_s",
         "switch_latency_s",
         "latency_direct_s",
         "latency_routed_s",
         "routed",
         "discontinuity_accel",
         "discontinuity_jerk",
+        "liveliness_error",
     ]
     .into_iter()
     .map(|id| (id.to_string(), unit(id)))
@@ -119,7 +131,8 @@ pub fn value(p: &Measured, id: &str) -> Option<f64> {
         Phase::AFTER.into_iter().find(|p| rest == format!("_{}", p.name())).map(Some)
     };
     match id {
-        "perceived_latency_s" => p.perceived_latency,
+        "perceived_latency_arrived_s" => p.perceived_latency,
+        "liveliness_error" => finite(p.liveliness.all.0).map(|r| r.max(LIVELINESS_FLOOR).ln().abs()),
         "switch_latency_s" => Some(p.switch_latency),
         "latency_direct_s" => p.perceived_latency.filter(|_| !p.routed),
         "latency_routed_s" => p.perceived_latency.filter(|_| p.routed),
@@ -164,6 +177,8 @@ pub struct Rules<'a> {
     pub jump_ratio: f64,
     /// Coverage horizon (s).
     pub horizon: f64,
+    /// Latency horizon τ (s): the censoring time of `perceived_latency_s`.
+    pub latency_horizon: f64,
     /// The requests whose start frame is a bridge point of their pair.
     pub on_bridge: &'a HashSet<i64>,
 }
@@ -197,6 +212,13 @@ pub fn system_rows(system: &System, measured: &[Measured], rules: Rules<'_>) -> 
         for (name, f) in shares {
             out.push(metric(&system.id, name, &g.0, &g.1, &share(f, g), "share", seed));
         }
+        let censored: Vec<f64> = rules
+            .requests
+            .iter()
+            .filter(|r| in_group(&r.from, &r.to, g))
+            .map(|r| censored_latency(by_id.get(&r.request).copied(), rules.latency_horizon))
+            .collect();
+        out.push(metric(&system.id, "perceived_latency_s", &g.0, &g.1, &censored, "s", seed));
         for (name, on) in [("latency_bridge_start_s", true), ("latency_other_start_s", false)] {
             let v: Vec<f64> = here
                 .iter()
@@ -226,20 +248,27 @@ pub fn start_rows(requests: &[Request], pairs: &[(String, String)], on_bridge: &
         .collect()
 }
 
-/// The measures compared pairwise.
-pub const PAIRED: [&str; 5] = [
+/// The measures compared pairwise (perceived latency censored as in [`system_rows`]).
+pub const PAIRED: [&str; 7] = [
     "perceived_latency_s",
     "discontinuity_accel",
+    "discontinuity_jerk",
+    "liveliness_error",
     "liveliness_ks",
     "plausibility_floor_mesh",
     "plausibility_floor_scaled",
 ];
 
-/// Paired comparisons of system `a` with `b` on the requests both answered (and both
-/// arrived, for a latency): per request, a's value minus b's for each of [`PAIRED`]; the
-/// mean difference with its bootstrap CI, per ordered pair and overall, as system
-/// `<a> vs <b>` and metric `paired_<measure>` (below 0, `a` is lower).
-pub fn paired(a: (&str, &[Measured]), b: (&str, &[Measured]), pairs: &[(String, String)]) -> Vec<Metric> {
+/// Paired comparisons of system `a` with `b` on the requests both answered: per request,
+/// a's value minus b's for each of [`PAIRED`] (perceived latency censored at
+/// `latency_horizon`); the mean difference with its bootstrap CI, per ordered pair and
+/// overall, as system `<a> vs <b>` and metric `paired_<measure>` (below 0, `a` is lower).
+pub fn paired(
+    a: (&str, &[Measured]),
+    b: (&str, &[Measured]),
+    pairs: &[(String, String)],
+    latency_horizon: f64,
+) -> Vec<Metric> {
     let by_id: std::collections::HashMap<i64, &Measured> = b.1.iter().map(|m| (m.request, m)).collect();
     let both: Vec<(&Measured, &Measured)> = a.1.iter().filter_map(|x| by_id.get(&x.request).map(|y| (x, *y))).collect();
     let system = format!("{} vs {}", a.0, b.0);
@@ -247,7 +276,11 @@ pub fn paired(a: (&str, &[Measured]), b: (&str, &[Measured]), pairs: &[(String, 
     for (gi, g) in groups(pairs).iter().enumerate() {
         let here: Vec<&(&Measured, &Measured)> = both.iter().filter(|(x, _)| in_group(&x.from, &x.to, g)).collect();
         for name in PAIRED {
-            let d: Vec<f64> = here.iter().filter_map(|(x, y)| Some(value(x, name)? - value(y, name)?)).collect();
+            let of = |p: &Measured| match name {
+                "perceived_latency_s" => Some(censored_latency(Some(p), latency_horizon)),
+                _ => value(p, name),
+            };
+            let d: Vec<f64> = here.iter().filter_map(|(x, y)| Some(of(x)? - of(y)?)).collect();
             let unit = metrics::find(name).map_or("", |m| m.unit);
             out.push(metric(&system, &format!("paired_{name}"), &g.0, &g.1, &d, unit, 100 + gi as u64));
         }
@@ -322,7 +355,14 @@ mod tests {
             .map(|(r, to, l)| measured(r, to, l, 1.0));
         let pairs = vec![("a".to_string(), "b".to_string()), ("b".to_string(), "a".to_string())];
         let on_bridge: HashSet<i64> = [0, 4].into();
-        let rules = Rules { requests: &reqs, pairs: &pairs, jump_ratio: 2.0, horizon: 1.0, on_bridge: &on_bridge };
+        let rules = Rules {
+            requests: &reqs,
+            pairs: &pairs,
+            jump_ratio: 2.0,
+            horizon: 1.0,
+            latency_horizon: 4.0,
+            on_bridge: &on_bridge,
+        };
         let m: Vec<Metric> = [(&ours, &ours_m[..]), (&theirs, &theirs_m[..])]
             .iter()
             .flat_map(|(s, per)| system_rows(s, per, rules))
@@ -335,10 +375,18 @@ mod tests {
         assert!((value_of(&m, "y", "coverage", "all", "all") - 4.0 / 6.0).abs() < 1e-12);
         assert_eq!(value_of(&m, "x", "answered", "all", "all"), 1.0);
         assert!((value_of(&m, "x", "arrived", "all", "all") - 5.0 / 6.0).abs() < 1e-12);
-        // Latency is over the requests that arrived, one value each.
+        // The ranked latency is over every request, a non-arrival counted as the 4 s horizon;
+        // the arrived-only latency beside it, over the requests that arrived.
         let lat = m.iter().find(|r| r.system == "x" && r.metric == "perceived_latency_s" && r.from == "all").unwrap();
-        assert_eq!(lat.n, 5);
-        assert!((lat.value - (0.4 + 1.0 + 1.25 + 0.1 + 1.1) / 5.0).abs() < 1e-12);
+        assert_eq!(lat.n, 6);
+        assert!((lat.value - (0.4 + 1.0 + 1.25 + 0.1 + 1.1 + 4.0) / 6.0).abs() < 1e-12);
+        let own = m.iter().find(|r| r.system == "x" && r.metric == "perceived_latency_arrived_s" && r.from == "all");
+        assert_eq!(own.unwrap().n, 5);
+        // y left two requests unanswered: they count as the horizon too.
+        assert!(
+            (value_of(&m, "y", "perceived_latency_s", "all", "all") - (0.2 + 4.0 + 0.9 + 4.0 + 0.2 + 1.0) / 6.0).abs()
+                < 1e-12
+        );
         // Split by start: requests 0 and 4 start on bridge points.
         assert!((value_of(&m, "x", "latency_bridge_start_s", "all", "all") - (0.4 + 1.1) / 2.0).abs() < 1e-12);
         assert!((value_of(&m, "x", "latency_other_start_s", "all", "all") - (1.0 + 1.25 + 0.1) / 3.0).abs() < 1e-12);
@@ -353,8 +401,8 @@ mod tests {
             .value
     }
 
-    /// Paired differences use only the requests both answered (both arrived, for the
-    /// latency), a minus b: here a is 0.5 s slower on each (it loses) and 1 lower in
+    /// Paired differences use only the requests both answered, a minus b (a latency that
+    /// never arrives counted as the horizon): here a is slower (it loses) and 1 lower in
     /// acceleration (it wins).
     #[test]
     fn paired_differences_on_common_requests() {
@@ -370,9 +418,11 @@ mod tests {
             measured(3, "b", Some(0.0), 0.0),
             measured(4, "b", Some(0.1), 2.0),
         ];
-        let m = paired(("x", &ours), ("y", &theirs), &[("a".into(), "b".into())]);
+        let m = paired(("x", &ours), ("y", &theirs), &[("a".into(), "b".into())], 4.0);
         let lat = m.iter().find(|x| x.metric == "paired_perceived_latency_s" && x.from == "all").unwrap();
-        assert_eq!((lat.system.as_str(), lat.value, lat.n), ("x vs y", 0.5, 2));
+        // Requests 0, 1 (0.5 s slower each) and 4 (x never arrives: 4 − 0.1 = 3.9).
+        assert_eq!((lat.system.as_str(), lat.n), ("x vs y", 3));
+        assert!((lat.value - (0.5 + 0.5 + 3.9) / 3.0).abs() < 1e-12);
         assert!(lat.ci_low.unwrap() > 0.0, "x is slower on every common request");
         assert_eq!(value_of(&m, "x vs y", "paired_discontinuity_accel", "a", "b"), -1.0);
         // Without plausibility frames the paired plausibility has no observations.

@@ -316,7 +316,7 @@ fn tables(s: &mut String, m: &[Metric], ctx: &report::Context<'_>) {
                 text(&esc(&m.metric)),
                 text(&esc(&m.from)),
                 text(&esc(&m.to)),
-                (format!("{:.4}", m.value), false, true),
+                (if m.value.is_finite() { format!("{:.4}", m.value) } else { "–".into() }, false, true),
                 (ci, false, true),
                 (m.n.to_string(), false, true),
                 text(&esc(&m.unit)),
@@ -497,7 +497,21 @@ fn definitions(s: &mut String, md: &str) {
     *s += "<section id='definitions'><h2>Definitions</h2>";
     let body = md.split("## Definitions").nth(1).unwrap_or("");
     let mut in_list = false;
+    let mut table: Vec<Vec<String>> = Vec::new();
     for para in body.split('\n').map(str::trim).filter(|l| !l.is_empty()) {
+        // A Markdown table (the metric catalogue): rows gathered, written at its end.
+        if let Some(row) = para.strip_prefix('|').and_then(|r| r.strip_suffix('|')) {
+            if !row.chars().all(|c| matches!(c, '-' | '|' | ':' | ' ')) {
+                table.push(row.split(" | ").map(|c| inline_md(&esc(c.trim()))).collect());
+            }
+            continue;
+        }
+        if !table.is_empty() {
+            let head: Vec<String> = table.remove(0);
+            let rows: Vec<Vec<(String, bool, bool)>> =
+                table.drain(..).map(|r| r.into_iter().map(|c| (c, false, false)).collect()).collect();
+            crate::html::table(s, "definitions", &head, &rows);
+        }
         let (item, line) = match para.strip_prefix("- ") {
             Some(rest) => (true, rest),
             None => (false, para),

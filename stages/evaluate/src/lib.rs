@@ -174,6 +174,10 @@ pub struct Args {
     /// Coverage horizon T, seconds.
     #[arg(long, default_value_t = 2.0)]
     pub coverage_seconds: f64,
+    /// Latency horizon τ, seconds: `perceived_latency_s` counts an arrival later than τ,
+    /// none, or no answer as τ (the restricted mean time to arrival).
+    #[arg(long, default_value_t = 4.0)]
+    pub latency_horizon: f64,
     /// Measure plausibility on every n-th frame after the request.
     #[arg(long, default_value_t = 3)]
     pub plausibility_stride: usize,
@@ -260,12 +264,15 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     if args.window < 2
         || args.coverage_seconds.is_nan()
         || args.coverage_seconds < 0.0
+        || args.latency_horizon.is_nan()
+        || args.latency_horizon <= 0.0
         || args.plausibility_stride == 0
         || args.arrival_frames == 0
         || args.discontinuity_window < 4
     {
         return Err(StageError::Config(
-            "need --window >= 2, --coverage-seconds >= 0, --plausibility-stride >= 1, --arrival-frames >= 1, \
+            "need --window >= 2, --coverage-seconds >= 0, --latency-horizon > 0, --plausibility-stride >= 1, \
+             --arrival-frames >= 1, \
              --discontinuity-window >= 4"
                 .into(),
         ));
@@ -330,6 +337,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         pairs: &pairs,
         jump_ratio: args.jump_ratio,
         horizon: args.coverage_seconds,
+        latency_horizon: args.latency_horizon,
     };
 
     let mut out: Vec<Metric> = Vec::new();
@@ -341,7 +349,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     }
     for (i, a) in systems.iter().enumerate() {
         for (b, theirs) in systems.iter().zip(&measured).skip(i + 1) {
-            out.extend(aggregate::paired((&a.id, &measured[i]), (&b.id, theirs), &pairs));
+            out.extend(aggregate::paired((&a.id, &measured[i]), (&b.id, theirs), &pairs, args.latency_horizon));
         }
     }
     out.extend(varieties);
@@ -364,6 +372,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         training: &training,
         window: args.window,
         coverage_seconds: args.coverage_seconds,
+        latency_horizon: args.latency_horizon,
         jump_ratio: args.jump_ratio,
         stride: args.plausibility_stride,
         conclusions: &conclusions,

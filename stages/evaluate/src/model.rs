@@ -25,6 +25,8 @@ pub struct Context<'a> {
     pub window: usize,
     /// Coverage horizon (s).
     pub coverage_seconds: f64,
+    /// Latency horizon τ (s).
+    pub latency_horizon: f64,
     /// Pose-jump threshold (× training p99 of peak vertex speed).
     pub jump_ratio: f64,
     /// Plausibility stride.
@@ -251,6 +253,7 @@ pub fn latency(m: &[Metric], ctx: &Context<'_>) -> Table {
     let head = system_head(&["metric", "over"], ctx);
     let rows = [
         "perceived_latency_s",
+        "perceived_latency_arrived_s",
         "switch_latency_s",
         "latency_direct_s",
         "latency_routed_s",
@@ -285,11 +288,10 @@ fn phase_rows(m: &[Metric], ctx: &Context<'_>, names: &[(String, Vec<String>)]) 
         let direction = metrics::direction_of(id);
         let vals: Vec<Option<&Metric>> =
             ctx.systems.iter().map(|(s, _)| find(m, s, id, "all", "all").filter(|x| x.n > 0)).collect();
-        let best = vals
-            .iter()
-            .filter_map(|v| direction.badness(v.as_ref()?.value))
-            .filter(|b| b.is_finite())
-            .fold(f64::INFINITY, f64::min);
+        let finite: Vec<f64> =
+            vals.iter().filter_map(|v| direction.badness(v.as_ref()?.value)).filter(|b| b.is_finite()).collect();
+        // As the rankings: a best cell only among two or more measured values.
+        let best = if finite.len() >= 2 { finite.iter().copied().fold(f64::INFINITY, f64::min) } else { f64::NAN };
         let mut row: Vec<Cell> = labels.iter().map(Cell::text).collect();
         for v in vals {
             let is_best = v.and_then(|x| direction.badness(x.value)).is_some_and(|b| b == best);
@@ -309,6 +311,7 @@ pub fn liveliness(m: &[Metric], ctx: &Context<'_>) -> Table {
             names.push((id, vec![measure.to_string(), phase.map_or("after the request", Phase::name).to_string()]));
         }
     }
+    names.push(("liveliness_error".into(), vec!["error (abs. ln ratio)".into(), "after the request".into()]));
     Table {
         id: "liveliness",
         title: "Liveliness by phase (ratio: closer to 1 is better; KS: lower is better)".into(),

@@ -158,6 +158,7 @@ fn definitions(s: &mut String, ctx: &Context<'_>) {
     let _ = writeln!(
         s,
         "\nSettings and reference values: arrival needs h = {h} B-like frames in a row; the coverage horizon is T = {cs} s; \
+         the latency horizon is τ = {tau} s; \
          the discontinuity window is W = {w} frames, centred on the label switch (moved inside the answer when the switch \
          is near an end); a pose jump is a peak vertex speed above {jr} × the training 99th percentile ({s99:.4} mesh \
          units/s); training 95th percentiles of peak vertex acceleration and jerk: {a95:.4} mesh units/s², {j95:.4} mesh \
@@ -168,6 +169,7 @@ fn definitions(s: &mut String, ctx: &Context<'_>) {
          seeded. The Motion Graph keeps {kept} of {all} training frames after pruning to its largest strongly connected \
          component.",
         h = ctx.arrival_frames,
+        tau = ctx.latency_horizon,
         w = ctx.discontinuity_window,
         jr = ctx.jump_ratio,
         s99 = t.speed99,
@@ -214,6 +216,7 @@ pub(crate) mod tests {
             conclusions: &conclusions,
             window: 12,
             coverage_seconds: 2.0,
+            latency_horizon: 4.0,
             jump_ratio: 2.0,
             stride: 3,
             arrival_frames: 6,

@@ -107,6 +107,20 @@ fn read_played(p: &Path, controls: &[String]) -> StageResult<BTreeMap<i64, Playe
     if c.controls != controls {
         return Err(StageError::Input(format!("{} lists other controls than the labeled frames", p.display())));
     }
+    // A non-finite control would measure as a perfect score (every comparison with NaN is
+    // false): refused, naming the row and the control.
+    let n = controls.len().max(1);
+    if let Some(i) = c.values.iter().position(|v| !v.is_finite()) {
+        return Err(StageError::Input(format!(
+            "{}: row {} (script `{}`, frame {}), control `{}` is {}; rerun the stage that wrote it",
+            p.display(),
+            i / n,
+            c.script.get(i / n).map_or("", String::as_str),
+            c.frame.get(i / n).copied().unwrap_or(-1),
+            controls.get(i % n).map_or("", String::as_str),
+            c.values[i]
+        )));
+    }
     Ok(by_request(&c))
 }
 

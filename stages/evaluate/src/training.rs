@@ -171,12 +171,14 @@ impl Reference {
 
     /// How far a distance computed from the single-precision coordinates (the set's, of
     /// largest magnitude $M$, and a query's, of largest magnitude $Q$) can be from the exact
-    /// one, in mesh length: with $A = \max(M, Q)$ each coordinate is off by at most
-    /// $2^{-24}A$, a difference by $2 \cdot 2^{-24}A$, a distance over $r$ coordinates by
-    /// $2\sqrt r\,2^{-24}A$; the single-precision sum of $r$ squares adds $r\,2^{-24}$ of
-    /// itself, at most $r\,2^{-24} \cdot 2A\sqrt r$ in distance. Taken with a factor 4 to
-    /// spare. The search stops only once a bound minus this passes the k-th best, so its
-    /// result stays exact.
+    /// one, in mesh length. With $u = 2^{-24}$ (half of `f32::EPSILON` $= \varepsilon$) and
+    /// $A = \max(M, Q)$: each rounded coordinate is off by at most $uA$ and the rounded
+    /// difference adds $2uA$, so a distance over $r$ coordinates is off by at most
+    /// $3\sqrt r\,uA$; squaring and the lane sums (depth at most $r/8 + 8$) add about
+    /// $(r/8 + 10)\,u$ of the sum, at most $2\sqrt r\,A$ in distance. The slack taken,
+    /// $4(2\sqrt r\,\varepsilon A + 2r\sqrt r\,\varepsilon A)$, is more than ten times that bound
+    /// for every $r \ge 1$. The search stops only once a bound minus this passes the k-th
+    /// best, so its result stays exact.
     pub fn slack(&self, q: f64, r: usize) -> f64 {
         let a = self.max_abs.max(q);
         let (eps, rt) = (f64::from(f32::EPSILON), (r.max(1) as f64).sqrt());
@@ -277,8 +279,9 @@ impl Training {
                 raw_out.iter_mut().zip(&m).for_each(|(o, v)| *o = *v as f32);
                 Ok(Segment {
                     rms_speed: rms_speeds(&m, dim, fps).get(1..).unwrap_or_default().to_vec(),
-                    acc: a[1..a.len().saturating_sub(1)].to_vec(),
-                    jerk: j[1..j.len().saturating_sub(2).max(1)].to_vec(),
+                    // Frames with the neighbours each difference needs (none in a run of one).
+                    acc: a.get(1..a.len().saturating_sub(1)).unwrap_or_default().to_vec(),
+                    jerk: j.get(1..j.len().saturating_sub(2)).unwrap_or_default().to_vec(),
                     speed: v.get(1..).unwrap_or_default().to_vec(),
                     mesh_steps,
                     raw_z: rows.iter().flat_map(|r| z(r)).collect(),

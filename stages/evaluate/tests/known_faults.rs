@@ -40,6 +40,8 @@ const C: usize = 4;
 const HOLD: usize = 12;
 const K: usize = 12;
 const AFTER: usize = 24;
+/// The latency horizon τ (s).
+const TAU: f64 = 3.0;
 
 /// Label `l`'s pose at time `t` (frames) of clip `s`: label 0 moves c0 and c2 around
 /// c1 = 0, label 1 moves c1 and c3 around c1 = 2.
@@ -175,7 +177,14 @@ fn run() -> Run {
     let pairs = vec![("a".to_string(), "b".to_string()), ("b".to_string(), "a".to_string())];
     let settings = Settings { k: K, stride: 1, arrival_frames: 6, discontinuity_window: 24 };
     let no_bridges = std::collections::HashSet::new();
-    let rules = Rules { requests: &reqs, pairs: &pairs, jump_ratio: 2.0, horizon: 1.0, on_bridge: &no_bridges };
+    let rules = Rules {
+        requests: &reqs,
+        pairs: &pairs,
+        jump_ratio: 2.0,
+        horizon: 1.0,
+        latency_horizon: TAU,
+        on_bridge: &no_bridges,
+    };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
     let (mut rows, mut measured) = (Vec::new(), BTreeMap::new());
     for fault in FAULTS {
@@ -213,7 +222,7 @@ fn run() -> Run {
     let ids: Vec<&str> = FAULTS.to_vec();
     for (i, a) in ids.iter().enumerate() {
         for b in &ids[i + 1..] {
-            rows.extend(aggregate::paired((a, &measured[a]), (b, &measured[b]), &pairs));
+            rows.extend(aggregate::paired((a, &measured[a]), (b, &measured[b]), &pairs, TAU));
         }
     }
     Run { rows, measured }
@@ -256,7 +265,9 @@ fn every_metric_orders_the_known_faults_as_their_faults_imply() {
     // A system that only labels its frames B answers every request and arrives at none.
     assert_eq!(v(&r, "never", "answered"), 1.0);
     assert_eq!((v(&r, "never", "arrived"), v(&r, "never", "coverage")), (0.0, 0.0));
-    assert_eq!(find(&r.rows, "never", "perceived_latency_s", "all", "all").unwrap().n, 0);
+    // Its latency is the horizon on every request; over the requests it arrived at, none.
+    assert_eq!(lat("never"), TAU);
+    assert_eq!(find(&r.rows, "never", "perceived_latency_arrived_s", "all", "all").unwrap().n, 0);
     assert_eq!(v(&r, "replay", "arrived"), 1.0);
     // Within the 1 s horizon: the delayed answers arrive too late, the others in time.
     assert_eq!(v(&r, "delayed", "coverage"), 0.0);
@@ -313,7 +324,10 @@ fn every_metric_orders_the_known_faults_as_their_faults_imply() {
     assert_eq!(last("discontinuity_accel"), "pop");
     assert!(best("success").iter().all(|s| s != "pop"));
     assert!(!best("arrived").contains(&"never".to_string()));
-    for m in ["liveliness_ratio", "liveliness_ks"] {
+    // A frozen and a jittering answer cannot average out to "as lively as B".
+    assert!(v(&r, "freeze", "liveliness_error") > 2.0 * v(&r, "replay", "liveliness_error"));
+    assert!(v(&r, "jitter", "liveliness_error") > 2.0 * v(&r, "replay", "liveliness_error"));
+    for m in ["liveliness_error", "liveliness_ks"] {
         assert!(!best(m).iter().any(|s| s == "freeze" || s == "jitter"), "{m}: {:?}", best(m));
         assert!(["freeze", "jitter"].contains(&last(m).as_str()), "{m} last: {}", last(m));
     }

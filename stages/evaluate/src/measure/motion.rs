@@ -27,11 +27,14 @@ pub struct Motion {
     pub speed: Vec<f64>,
 }
 
-/// The `w` frames centred on frame `centre`, moved to lie inside `0..frames` where the
-/// answer is long enough (so every system is measured over the same length).
-pub fn window(centre: usize, w: usize, frames: usize) -> std::ops::Range<usize> {
-    let w = w.min(frames);
-    let lo = centre.saturating_sub(w / 2).min(frames - w);
+/// The `w` frames centred on frame `centre`, moved to lie inside `first..frames` (the
+/// frames after the request: the hold before it is context, and a system asked after a
+/// hold must not be charged for it) where the answer is long enough, so every system is
+/// measured over the same length.
+pub fn window(centre: usize, w: usize, first: usize, frames: usize) -> std::ops::Range<usize> {
+    let first = first.min(frames);
+    let w = w.min(frames - first);
+    let lo = centre.saturating_sub(w / 2).max(first).min(frames - w);
     lo..lo + w
 }
 
@@ -53,7 +56,7 @@ pub fn measure(m: &[f64], training: &Training, asked: usize, switch: usize, w: u
             }
         })
         .collect();
-    let win = window(switch, w, frames);
+    let win = window(switch, w, asked + 1, frames);
     Motion {
         discontinuity: Discontinuity {
             accel: max(&a[win.clone()]) / training.acc95,
@@ -68,13 +71,19 @@ pub fn measure(m: &[f64], training: &Training, asked: usize, switch: usize, w: u
 mod tests {
     use super::window;
 
-    /// The window keeps its length, centred where it can be, shifted inside the answer
-    /// where it cannot, and is the whole answer when that is shorter.
+    /// The window keeps its length, centred where it can be, shifted after the request
+    /// and inside the answer where it cannot, and is all the frames after the request when
+    /// they are fewer. A switch right after a hold (reprise is asked at frame 11) and one
+    /// at the start (the others are asked at 0) are measured over the same frames relative
+    /// to the request.
     #[test]
     fn the_window_has_one_length() {
-        assert_eq!(window(20, 8, 40), 16..24);
-        assert_eq!(window(2, 8, 40), 0..8);
-        assert_eq!(window(39, 8, 40), 32..40);
-        assert_eq!(window(3, 8, 5), 0..5);
+        assert_eq!(window(20, 8, 1, 40), 16..24);
+        assert_eq!(window(2, 8, 1, 40), 1..9);
+        assert_eq!(window(39, 8, 1, 40), 32..40);
+        assert_eq!(window(3, 8, 1, 5), 1..5);
+        assert_eq!(window(13, 8, 12, 50), 12..20);
+        assert_eq!(window(1, 8, 1, 50), 1..9);
+        assert_eq!(window(3, 8, 9, 5), 5..5);
     }
 }
