@@ -265,6 +265,7 @@ pub fn latency(m: &[Metric], ctx: &Context<'_>) -> Table {
     .map(|id| {
         let over = match metrics::find(id).map(|d| d.per) {
             Some(metrics::Per::Arrived) => "requests that arrived",
+            Some(metrics::Per::Request) => "every request (censored at τ)",
             _ => "answered requests",
         };
         let mut row = vec![Cell::text(format!("`{id}`")), Cell::text(over)];
