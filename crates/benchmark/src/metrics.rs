@@ -346,7 +346,7 @@ pub fn reference_table() -> String {
     for d in CATALOGUE {
         let name = if d.family { format!("`{}…`", d.id) } else { format!("`{}`", d.id) };
         let per = match d.per {
-            Per::Request => "every request (a share)",
+            Per::Request => "every request",
             Per::Answered => "answered requests",
             Per::Arrived => "requests that arrived",
             Per::Count => "label or label pair",
