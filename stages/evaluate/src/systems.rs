@@ -137,3 +137,32 @@ pub fn by_request(c: &Curves) -> BTreeMap<i64, Played> {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A curves file with a non-finite control is refused, naming the file (it would
+    /// otherwise measure as a perfect score); the same file without it loads.
+    #[test]
+    fn non_finite_curves_are_refused_by_name() {
+        let dir = std::env::temp_dir().join(format!("reprise-nan-curves-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let controls = vec!["jaw".to_string(), "brow".to_string()];
+        let mut c = Curves { fps: 24.0, controls: controls.clone(), ..Default::default() };
+        let frames = [[0.0, 0.1], [0.2, f64::NAN]];
+        c.push_script("r7", frames.iter().map(|p| curves::Frame::plain("a", p)));
+        let provenance = reprise_artifact::Provenance::new("t", "0", serde_json::json!({}));
+        let path = dir.join("curves.parquet");
+        let refused = curves::write(&path, &c, &provenance)
+            .err()
+            .map(|e| e.to_string())
+            .or_else(|| read_played(&path, &controls).err().map(|e| e.to_string()));
+        let e = refused.expect("a NaN control must not load");
+        assert!(e.contains("curves.parquet") && (e.contains("NaN") || e.contains("finite")), "{e}");
+        c.values[3] = 0.3;
+        curves::write(&path, &c, &provenance).unwrap();
+        assert_eq!(read_played(&path, &controls).unwrap()[&7].controls[1], vec![0.2, 0.3]);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -473,6 +473,28 @@ pub(crate) mod tests {
         assert!(raw.scaled > 0.01 && raw.mesh > 0.01, "the wobble is gone: {raw:?}");
     }
 
+    /// A label of a single frame (a run without neighbours for any difference) is measured
+    /// without a panic: it adds no motion percentile and has no speeds, but its frame is a
+    /// reference pose with its label.
+    #[test]
+    fn a_one_frame_label_is_measured() {
+        let mut lf = labeled();
+        lf.segment_id.push(9);
+        lf.label.push("c".into());
+        lf.frames.clip.push("clip9".into());
+        lf.frames.frame.push(0);
+        lf.frames.time.push(0.0);
+        lf.frames.values.extend([0.3, 0.3, 0.0]);
+        let mut maps = maps();
+        let w = [1.0; 3];
+        maps.push(("c".into(), RigMap::from_pca(&[0.3, 0.3, 0.0], &[1.0, 0.0, 0.0], &[0.3, 0.3, 0.0], &w).unwrap()));
+        let t = Training::measure(&rig(), &lf, vec![1.0; 3], &maps, usize::MAX).unwrap();
+        let c = t.label_index("c").unwrap();
+        assert!(t.speeds[c].is_empty() && t.mean_speed(c).is_nan());
+        assert_eq!(t.row_label.last(), Some(&c));
+        assert_eq!(t.raw.z.len(), 61 * 3);
+    }
+
     /// The pruned search finds the same candidates as a full scan: random poses against a
     /// random 300-frame set in 20 dimensions, with a 5-dimensional search basis.
     #[test]
