@@ -359,7 +359,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     mg.check_frames(&labeled, &args.labeled_frames)?;
     reprise_artifact::provenance::check_made_from(&args.mg_nodes, &provenance)?;
     let (nodes, edges) = (&mg.nodes, &mg.edges);
-    out.extend(transition_points(&args.bridges, &args.mg_edges, nodes, edges, &labels)?);
+    out.extend(transition_points(&links, &args.mg_edges, nodes, edges, &labels)?);
     out.extend(model_quality(&args.gplvm_fits, &args.pca_errors)?);
 
     let shown: Vec<(String, String)> = systems.iter().map(|s| (s.id.clone(), s.shown.clone())).collect();
@@ -494,13 +494,12 @@ fn mean_speed(per: &[Measured]) -> Vec<f64> {
 /// Bridges (reprise) and pruned-graph transition edges (the baseline) per ordered pair —
 /// counts of the systems' tables, not measurements of their answers.
 fn transition_points(
-    bridges_path: &Path,
+    links: &[bridges::Bridge],
     edges_path: &Path,
     nodes: &motion_graph::Nodes,
     edges: &[motion_graph::Edge],
     labels: &[String],
 ) -> StageResult<Vec<Metric>> {
-    let links = bridges::read(bridges_path)?;
     let label_of = |i: i64| -> StageResult<&str> {
         usize::try_from(i).ok().and_then(|i| nodes.label.get(i)).map(String::as_str).ok_or_else(|| {
             StageError::Input(format!(
@@ -531,26 +530,17 @@ fn transition_points(
 fn model_quality(fits_path: &Path, errors_path: &Path) -> StageResult<Vec<Metric>> {
     let mut out = Vec::new();
     for f in gplvm::read_fits(fits_path)? {
-        let held = f.heldout_frames.max(0) as usize;
-        let heldout = [
-            ("gplvm", f.heldout_gplvm_mesh_rmse),
-            ("pca-q", f.heldout_pca_q_mesh_rmse),
-            ("pca-d", f.heldout_pca_d_mesh_rmse),
+        let checks = [
+            ("heldout_mesh_rmse", f.heldout_frames, "gplvm", f.heldout_gplvm_mesh_rmse),
+            ("heldout_mesh_rmse", f.heldout_frames, "pca-q", f.heldout_pca_q_mesh_rmse),
+            ("heldout_mesh_rmse", f.heldout_frames, "pca-d", f.heldout_pca_d_mesh_rmse),
+            ("generative_mesh_rmse", f.generative_frames, "gplvm", f.generative_gplvm_mesh_rmse),
+            ("generative_mesh_rmse", f.generative_frames, "interpolation", f.generative_interp_mesh_rmse),
+            ("generative_mesh_rmse", f.generative_frames, "interpolation-d", f.generative_interp_d_mesh_rmse),
         ];
-        for (variant, v) in heldout {
+        for (metric, frames, variant, v) in checks {
             if let Some(v) = v {
-                out.push(exact(variant, "heldout_mesh_rmse", &f.label, "", v, held, "mesh units"));
-            }
-        }
-        let generated = f.generative_frames.max(0) as usize;
-        let generative = [
-            ("gplvm", f.generative_gplvm_mesh_rmse),
-            ("interpolation", f.generative_interp_mesh_rmse),
-            ("interpolation-d", f.generative_interp_d_mesh_rmse),
-        ];
-        for (variant, v) in generative {
-            if let Some(v) = v {
-                out.push(exact(variant, "generative_mesh_rmse", &f.label, "", v, generated, "mesh units"));
+                out.push(exact(variant, metric, &f.label, "", v, frames.max(0) as usize, "mesh units"));
             }
         }
     }

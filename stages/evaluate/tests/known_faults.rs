@@ -185,7 +185,10 @@ fn run() -> Run {
         latency_horizon: TAU,
         on_bridge: &no_bridges,
     };
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    // The jitter's noise: a fixed seed (CI is deterministic); `REPRISE_FAULT_SEED` picks
+    // another for a longer local run.
+    let seed = std::env::var("REPRISE_FAULT_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(11);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let (mut rows, mut measured) = (Vec::new(), BTreeMap::new());
     for fault in FAULTS {
         let (mut by_request, mut played) = (std::collections::HashMap::new(), BTreeMap::new());
