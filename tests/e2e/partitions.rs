@@ -85,7 +85,9 @@ fn one_label_changed_reruns_one_partition_per_stage() {
     .chain(params(&p))
     .collect();
     p.stage("reprise-gplvm", &args.iter().map(String::as_str).collect::<Vec<_>>()).ok();
-    let content = |path: &str| Table::read_any(&p.path(path)).unwrap().metadata()["reprise.content_blake3"].clone();
+    let content = |path: &str| {
+        Table::read_any(&p.path(path)).unwrap().metadata()[reprise_artifact::provenance::KEY_CONTENT].clone()
+    };
     for (merged, whole) in [("gplvm_models", "models"), ("gplvm_latents", "latents")] {
         assert_eq!(content(&a(merged)), content(&format!("whole/{whole}.parquet")), "{merged}");
     }

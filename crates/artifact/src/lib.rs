@@ -21,9 +21,11 @@
 #![warn(missing_docs)]
 
 pub mod contain;
+mod content;
 pub mod error;
 pub mod partition;
 pub mod provenance;
+pub mod stream;
 pub mod table;
 mod kinds {
     pub mod bridges;

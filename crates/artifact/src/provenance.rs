@@ -22,7 +22,7 @@ pub const KEY_PARAMS: &str = "reprise.params";
 /// Metadata key: blake3 of the canonical parameter JSON.
 pub const KEY_PARAMS_HASH: &str = "reprise.params_hash";
 /// Metadata key: blake3 of the table's decoded content, checked on every read.
-pub const KEY_CONTENT: &str = "reprise.content_blake3";
+pub const KEY_CONTENT: &str = "reprise.content_blake3_columns";
 /// Metadata key: JSON object `name -> {path, blake3}` of the stage's input files.
 pub const KEY_INPUTS: &str = "reprise.inputs";
 

@@ -8,14 +8,9 @@ use std::sync::Arc;
 
 use arrow::array::{Array, ArrayRef, BooleanArray, Float64Array, Int64Array, RecordBatch, StringArray};
 use arrow::datatypes::{DataType, Field, Schema};
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
-use parquet::arrow::ArrowWriter;
-use parquet::basic::{Compression, ZstdLevel};
-use parquet::file::metadata::KeyValue;
-use parquet::file::properties::WriterProperties;
 
 use crate::error::{ArtifactError, Result};
-use crate::provenance::{Provenance, KEY_CONTENT, KEY_KIND, KEY_SCHEMA_VERSION};
+use crate::provenance::{Provenance, KEY_KIND, KEY_SCHEMA_VERSION};
 
 /// An artifact kind: its name (stored under `reprise.schema`) and schema version.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -69,6 +64,11 @@ impl Columns {
         self.fields.push(Field::new(name, dtype, false));
         self.arrays.push(array);
     }
+    /// The columns as one Arrow batch (an error, naming `path`, if their lengths differ).
+    pub(crate) fn into_batch(self, path: &Path) -> Result<RecordBatch> {
+        RecordBatch::try_new(Arc::new(Schema::new(self.fields)), self.arrays)
+            .map_err(|e| ArtifactError::parquet(path, e))
+    }
 }
 
 /// Writes `columns` as a Parquet artifact of `kind`, atomically: the data goes to a
@@ -82,61 +82,56 @@ pub fn write(
     provenance: &Provenance,
     extra: &[(String, String)],
 ) -> Result<()> {
-    let schema = Arc::new(Schema::new(columns.fields));
-    let batch = RecordBatch::try_new(schema, columns.arrays).map_err(|e| ArtifactError::parquet(path, e))?;
-    let kv = [(KEY_KIND.to_string(), kind.name.to_string()), (KEY_SCHEMA_VERSION.into(), kind.version.to_string())]
-        .into_iter()
-        .chain(provenance.to_metadata())
-        .chain(extra.iter().cloned());
-    write_batch(path, &batch, kv.collect())
+    crate::stream::TableWriter::create(path, kind, columns, provenance, extra)?.finish()
 }
 
 /// Writes `batch` atomically with the key-value `metadata` (kind, schema version,
 /// provenance, extra keys) and the batch's content hash (computed here, replacing any
-/// [`KEY_CONTENT`] in `metadata`).
+/// [`crate::provenance::KEY_CONTENT`] in `metadata`).
 pub(crate) fn write_batch(path: &Path, batch: &RecordBatch, metadata: Vec<(String, String)>) -> Result<()> {
-    let schema = batch.schema();
-    let mut kv: Vec<KeyValue> =
-        metadata.into_iter().filter(|(k, _)| k != KEY_CONTENT).map(|(k, v)| KeyValue::new(k, v)).collect();
-    if let Some(hash) = content_hash(batch) {
-        kv.push(KeyValue::new(KEY_CONTENT.into(), hash));
-    }
-    let props = WriterProperties::builder()
-        .set_compression(Compression::ZSTD(ZstdLevel::try_new(1).expect("level 1 is valid")))
-        .set_key_value_metadata(Some(kv))
-        .build();
-    write_atomic(path, |file| {
-        let mut writer =
-            ArrowWriter::try_new(file, schema, Some(props)).map_err(|e| ArtifactError::parquet(path, e))?;
-        writer.write(batch).map_err(|e| ArtifactError::parquet(path, e))?;
-        writer.close().map_err(|e| ArtifactError::parquet(path, e))?;
-        Ok(())
-    })
+    let mut w = crate::stream::TableWriter::with_metadata(path, batch.schema(), metadata)?;
+    w.write_batch(batch)?;
+    w.finish()
 }
 
 /// Runs `fill` on a temporary file in `path`'s directory, then renames it to `path`.
 /// On any error the temporary file is removed and `path` is untouched. After
 /// [`defer_commits`] the rename waits for [`commit_pending`].
 pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut File) -> Result<()>) -> Result<()> {
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(|e| ArtifactError::io(dir, e))?;
-    let tmp = temp_path(path);
+    let tmp = begin_atomic(path)?;
     let result = (|| {
         let mut file = File::create(&tmp).map_err(|e| ArtifactError::io(&tmp, e))?;
         fill(&mut file)?;
         file.sync_all().map_err(|e| ArtifactError::io(&tmp, e))?;
-        let mut pending = PENDING.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        match pending.as_mut() {
-            Some(list) => {
-                list.retain(|(_, p)| p != path);
-                list.push((tmp.clone(), path.to_path_buf()));
-                Ok(())
-            }
-            None => std::fs::rename(&tmp, path).map_err(|e| ArtifactError::io(path, e)),
-        }
+        commit_atomic(&tmp, path)
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Creates `path`'s directory and returns the temporary file to fill for it.
+pub(crate) fn begin_atomic(path: &Path) -> Result<PathBuf> {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(|e| ArtifactError::io(dir, e))?;
+    Ok(temp_path(path))
+}
+
+/// Renames the complete temporary file `tmp` to `path`, or records it as pending after
+/// [`defer_commits`]. On error `tmp` is removed.
+pub(crate) fn commit_atomic(tmp: &Path, path: &Path) -> Result<()> {
+    let mut pending = PENDING.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let result = match pending.as_mut() {
+        Some(list) => {
+            list.retain(|(_, p)| p != path);
+            list.push((tmp.to_path_buf(), path.to_path_buf()));
+            Ok(())
+        }
+        None => std::fs::rename(tmp, path).map_err(|e| ArtifactError::io(path, e)),
+    };
+    if result.is_err() {
+        let _ = std::fs::remove_file(tmp);
     }
     result
 }
@@ -194,46 +189,6 @@ pub(crate) fn current_location(path: &Path) -> PathBuf {
         .unwrap_or_else(|| path.to_path_buf())
 }
 
-/// blake3 of a table's decoded content (column names, types, nulls and values), or
-/// `None` if it holds a column type reprise does not write. Stored under
-/// [`KEY_CONTENT`] and checked on every read: Parquet pages carry no checksum as
-/// parquet-rs writes them, so a flipped bit in a data page would otherwise decode into
-/// silently different numbers.
-fn content_hash(batch: &RecordBatch) -> Option<String> {
-    let mut h = blake3::Hasher::new();
-    for (field, column) in batch.schema().fields().iter().zip(batch.columns()) {
-        h.update(&(field.name().len() as u64).to_le_bytes());
-        h.update(field.name().as_bytes());
-        h.update(field.data_type().to_string().as_bytes());
-        let any = column.as_any();
-        let (f64s, i64s) = (any.downcast_ref::<Float64Array>(), any.downcast_ref::<Int64Array>());
-        let (bools, strs) = (any.downcast_ref::<BooleanArray>(), any.downcast_ref::<StringArray>());
-        if f64s.is_none() && i64s.is_none() && bools.is_none() && strs.is_none() {
-            return None;
-        }
-        let mut buf = Vec::with_capacity(column.len() * 9);
-        for row in 0..column.len() {
-            if column.is_null(row) {
-                buf.push(0);
-                continue;
-            }
-            buf.push(1);
-            if let Some(a) = f64s {
-                buf.extend_from_slice(&a.value(row).to_bits().to_le_bytes());
-            } else if let Some(a) = i64s {
-                buf.extend_from_slice(&a.value(row).to_le_bytes());
-            } else if let Some(a) = bools {
-                buf.push(u8::from(a.value(row)));
-            } else if let Some(a) = strs {
-                buf.extend_from_slice(&(a.value(row).len() as u64).to_le_bytes());
-                buf.extend_from_slice(a.value(row).as_bytes());
-            }
-        }
-        h.update(&buf);
-    }
-    Some(h.finalize().to_hex().to_string())
-}
-
 /// The key-value metadata of a Parquet file, read from its footer only.
 pub fn metadata_of(path: &Path) -> Result<BTreeMap<String, String>> {
     use parquet::file::reader::{FileReader, SerializedFileReader};
@@ -249,6 +204,8 @@ pub struct Table {
     path: PathBuf,
     batch: RecordBatch,
     metadata: BTreeMap<String, String>,
+    /// The file row of this table's first row (a chunk of a [`crate::stream::TableStream`]).
+    first_row: usize,
 }
 
 impl Table {
@@ -256,23 +213,7 @@ impl Table {
     /// and that no column name repeats.
     pub fn read(path: &Path, kind: Kind) -> Result<Self> {
         let table = Self::read_any(path)?;
-        let found = table.metadata.get(KEY_KIND).cloned();
-        if found.as_deref() != Some(kind.name) {
-            return Err(ArtifactError::WrongKind {
-                path: path.into(),
-                expected: kind.name.into(),
-                found: found.map_or_else(|| "no `reprise.schema` metadata".into(), |k| format!("`{k}`")),
-            });
-        }
-        let version = table.metadata.get(KEY_SCHEMA_VERSION).cloned().unwrap_or_else(|| "(none)".into());
-        if version != kind.version.to_string() {
-            return Err(ArtifactError::SchemaVersion {
-                path: path.into(),
-                kind: kind.name.into(),
-                expected: kind.version,
-                found: version,
-            });
-        }
+        check_kind(path, &table.metadata, kind)?;
         Ok(table)
     }
 
@@ -282,40 +223,20 @@ impl Table {
     /// ranges are checked against the file before any page is read (the `parquet` crate
     /// asserts on a negative range), and any other panic inside the library is contained.
     pub fn read_any(path: &Path) -> Result<Self> {
-        crate::contain::contain(|| Self::read_unguarded(path)).unwrap_or_else(|message| {
-            Err(ArtifactError::Parquet { path: path.into(), message: format!("damaged file ({message})") })
-        })
+        crate::stream::TableStream::open_any(path, 65_536)?.collect()
     }
 
-    fn read_unguarded(path: &Path) -> Result<Self> {
-        let file = File::open(current_location(path)).map_err(|e| ArtifactError::io(path, e))?;
-        let file_len = file.metadata().map_err(|e| ArtifactError::io(path, e))?.len();
-        let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| ArtifactError::parquet(path, e))?;
-        check_chunk_ranges(builder.metadata(), file_len)
-            .map_err(|message| ArtifactError::Parquet { path: path.into(), message })?;
-        let metadata: BTreeMap<String, String> = builder
-            .metadata()
-            .file_metadata()
-            .key_value_metadata()
-            .map(|kv| kv.iter().map(|e| (e.key.clone(), e.value.clone().unwrap_or_default())).collect())
-            .unwrap_or_default();
-        let schema = builder.schema().clone();
-        let reader = builder.build().map_err(|e| ArtifactError::parquet(path, e))?;
-        let batches =
-            reader.collect::<std::result::Result<Vec<_>, _>>().map_err(|e| ArtifactError::parquet(path, e))?;
-        let batch = arrow::compute::concat_batches(&schema, &batches).map_err(|e| ArtifactError::parquet(path, e))?;
-        if let Some(expected) = metadata.get(KEY_CONTENT) {
-            if content_hash(&batch).as_ref() != Some(expected) {
-                return Err(ArtifactError::Corrupt { path: path.into() });
-            }
-        }
-        let mut seen = std::collections::HashSet::new();
-        for field in schema.fields() {
-            if !seen.insert(field.name()) {
-                return Err(ArtifactError::DuplicateColumn { path: path.into(), column: field.name().clone() });
-            }
-        }
-        Ok(Self { path: path.into(), batch, metadata })
+    pub(crate) fn from_parts(
+        path: PathBuf,
+        batch: RecordBatch,
+        metadata: BTreeMap<String, String>,
+        first_row: usize,
+    ) -> Self {
+        Self { path, batch, metadata, first_row }
+    }
+
+    pub(crate) fn into_batch(self) -> RecordBatch {
+        self.batch
     }
 
     /// The whole table as one Arrow batch.
@@ -364,7 +285,7 @@ impl Table {
     fn typed<'a, T: 'static>(&'a self, name: &str, expected: &str) -> Result<&'a T> {
         let col = self.column(name)?;
         if let Some(i) = (0..col.len()).find(|&i| col.is_null(i)) {
-            return Err(ArtifactError::Null { path: self.path.clone(), column: name.into(), row: i });
+            return Err(ArtifactError::Null { path: self.path.clone(), column: name.into(), row: self.first_row + i });
         }
         col.as_any().downcast_ref::<T>().ok_or_else(|| ArtifactError::ColumnType {
             path: self.path.clone(),
@@ -378,7 +299,12 @@ impl Table {
     pub fn f64(&self, name: &str) -> Result<&[f64]> {
         let values = self.typed::<Float64Array>(name, "Float64")?.values();
         if let Some((row, &value)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-            return Err(ArtifactError::NotFinite { path: self.path.clone(), column: name.into(), row, value });
+            return Err(ArtifactError::NotFinite {
+                path: self.path.clone(),
+                column: name.into(),
+                row: self.first_row + row,
+                value,
+            });
         }
         Ok(values)
     }
@@ -400,7 +326,12 @@ impl Table {
         if let Some((row, value)) =
             values.iter().enumerate().find_map(|(i, v)| v.filter(|x| !x.is_finite()).map(|x| (i, x)))
         {
-            return Err(ArtifactError::NotFinite { path: self.path.clone(), column: name.into(), row, value });
+            return Err(ArtifactError::NotFinite {
+                path: self.path.clone(),
+                column: name.into(),
+                row: self.first_row + row,
+                value,
+            });
         }
         Ok(values)
     }
@@ -434,10 +365,15 @@ impl Table {
             .iter()
             .enumerate()
             .map(|(row, v)| match v {
-                None => Err(ArtifactError::Null { path: self.path.clone(), column: name.into(), row }),
-                Some(value) if !value.is_finite() => {
-                    Err(ArtifactError::NotFinite { path: self.path.clone(), column: name.into(), row, value })
+                None => {
+                    Err(ArtifactError::Null { path: self.path.clone(), column: name.into(), row: self.first_row + row })
                 }
+                Some(value) if !value.is_finite() => Err(ArtifactError::NotFinite {
+                    path: self.path.clone(),
+                    column: name.into(),
+                    row: self.first_row + row,
+                    value,
+                }),
                 Some(value) => Ok(value),
             })
             .collect()
@@ -455,7 +391,7 @@ impl Table {
         (0..array.len())
             .map(|row| {
                 if array.is_null(row) {
-                    Err(ArtifactError::Null { path: self.path.clone(), column: name.into(), row })
+                    Err(ArtifactError::Null { path: self.path.clone(), column: name.into(), row: self.first_row + row })
                 } else {
                     Ok(array.value(row).to_string())
                 }
@@ -470,6 +406,28 @@ impl Table {
     pub fn invalid(&self, message: impl Into<String>) -> ArtifactError {
         ArtifactError::Invalid { path: self.path.clone(), message: message.into() }
     }
+}
+
+/// Checks that `metadata` (of `path`) says it is a `kind` artifact of the supported version.
+pub(crate) fn check_kind(path: &Path, metadata: &BTreeMap<String, String>, kind: Kind) -> Result<()> {
+    let found = metadata.get(KEY_KIND).cloned();
+    if found.as_deref() != Some(kind.name) {
+        return Err(ArtifactError::WrongKind {
+            path: path.into(),
+            expected: kind.name.into(),
+            found: found.map_or_else(|| "no `reprise.schema` metadata".into(), |k| format!("`{k}`")),
+        });
+    }
+    let version = metadata.get(KEY_SCHEMA_VERSION).cloned().unwrap_or_else(|| "(none)".into());
+    if version != kind.version.to_string() {
+        return Err(ArtifactError::SchemaVersion {
+            path: path.into(),
+            kind: kind.name.into(),
+            expected: kind.version,
+            found: version,
+        });
+    }
+    Ok(())
 }
 
 /// Checks that every column chunk's pages lie inside the file (`file_len` bytes): a

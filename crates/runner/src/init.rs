@@ -472,7 +472,8 @@ quantile = 0.2
 
 [stage.transitions]
 [stage.transitions.params]
-per_pair = 5
+per_pair = 20          # fewer with many labels: at most max_requests in all
+max_requests = 1200
 
 [stage.motion-match]
 [stage.motion-match.params]

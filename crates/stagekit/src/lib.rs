@@ -105,6 +105,27 @@ pub fn print_answer_summary<'a>(
     eprintln!("{system:<16} answered {:>4} / {total:<4} requests, median latency {median} frames", latencies.len());
 }
 
+/// Items mapped in parallel per chunk (see [`par_map_chunked`]).
+pub const CHUNK: usize = 64;
+
+/// Maps `items` in parallel, [`CHUNK`] at a time, handing each result to `sink` in item
+/// order before the next chunk is mapped: a stage whose results are large (an answer's
+/// frames) holds one chunk of them, not all. The first error of `sink` stops it.
+pub fn par_map_chunked<T: Sync, R: Send>(
+    items: &[T],
+    map: impl Fn(&T) -> R + Sync,
+    mut sink: impl FnMut(R) -> StageResult<()>,
+) -> StageResult<()> {
+    use rayon::prelude::*;
+    for chunk in items.chunks(CHUNK) {
+        let results: Vec<R> = chunk.par_iter().map(&map).collect();
+        for r in results {
+            sink(r)?;
+        }
+    }
+    Ok(())
+}
+
 /// A progress bar on stderr: a bar on a terminal, a plain line every
 /// [`progress::LOG_EVERY`] otherwise (see [`progress::draw_target`]).
 pub fn progress(len: u64, message: &str) -> ProgressBar {
@@ -125,7 +146,23 @@ pub fn multi_progress() -> MultiProgress {
     MultiProgress::with_draw_target(progress::draw_target())
 }
 
+/// A counter of `unit`s (e.g. "evaluations") for work of unknown length, added to `multi`:
+/// its message, how many so far and the time elapsed ([`progress::COUNTER_TEMPLATE`]).
+pub fn counter_in(multi: &MultiProgress, message: &str, unit: &str) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(None, progress::draw_target());
+    bar.set_style(ProgressStyle::with_template(progress::COUNTER_TEMPLATE).expect("the template is valid"));
+    bar.set_message(message.to_string());
+    bar.set_prefix(unit.to_string());
+    multi.add(bar)
+}
+
 /// A bar of [`progress`]'s style added to `multi`.
 pub fn progress_in(multi: &MultiProgress, len: u64, message: &str) -> ProgressBar {
     multi.add(progress(len, message))
 }
+
+/// Every stage allocates through mimalloc: glibc's allocator keeps a heap per thread and
+/// returns little of it, so a stage whose threads take turns at large buffers (one
+/// answer's meshes) held about 1.4 × its live memory.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;

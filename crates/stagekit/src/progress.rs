@@ -12,6 +12,10 @@ use indicatif::{ProgressDrawTarget, TermLike};
 /// what remains.
 pub const TEMPLATE: &str = "{msg:>12} [{bar:30}] {pos}/{len} {elapsed} (ETA {eta})";
 
+/// The template of work with no known length (an optimiser that stops when it converges):
+/// message, count and elapsed time — no bar, no total, no estimate.
+pub const COUNTER_TEMPLATE: &str = "{msg} · {pos} {prefix} · {elapsed}";
+
 /// How often a bar prints its line when stderr is not a terminal.
 pub const LOG_EVERY: Duration = Duration::from_secs(5);
 

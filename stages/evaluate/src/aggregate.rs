@@ -302,13 +302,7 @@ mod tests {
             .iter()
             .map(|&(r, l)| (r, l.map_or_else(|| Answer::failed("no"), |l| Answer::reached(0, l))))
             .collect();
-        System {
-            id: id.into(),
-            shown: id.into(),
-            answers: Answers { system: id.into(), by_request },
-            played: Default::default(),
-            reseeded_curves: None,
-        }
+        System::in_memory(id, Answers { system: id.into(), by_request }, Default::default())
     }
 
     fn measured(request: i64, to: &str, perceived: Option<f64>, accel: f64) -> Measured {

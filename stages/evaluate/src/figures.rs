@@ -36,6 +36,8 @@ pub struct Inputs<'a> {
     pub systems: &'a [System],
     /// Per system its measured answers.
     pub measured: &'a [Vec<Measured>],
+    /// Per system its perceived latency per request that arrived (seconds).
+    pub arrivals: &'a player::Arrivals,
     /// The bridges.
     pub links: &'a [bridges::Bridge],
     /// Label order.
@@ -89,13 +91,8 @@ pub fn figures<'a>(inp: Inputs<'a>, provenance: &reprise_artifact::Provenance) -
     let synth = curves::read(&args.curves)?;
     let filmstrip = filmstrip(inp.rig, &synth)?;
     let mut missing = missing(inp.systems, inp.requests, inp.labels);
-    let arrivals: Vec<std::collections::BTreeMap<i64, f64>> = inp
-        .measured
-        .iter()
-        .map(|per| per.iter().filter_map(|m| Some((m.request, m.perceived_latency?))).collect())
-        .collect();
     let player = player::build(&player::Inputs {
-        arrivals: &arrivals,
+        arrivals: inp.arrivals,
         rig: inp.rig,
         training: inp.training,
         labeled: inp.labeled,

@@ -287,20 +287,12 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     let labeled = LabeledFrames::read(&args.labeled_frames)?;
     let rig = open_rig(&Controls::read(&args.controls)?, &labeled.frames.controls)?;
     let reqs = transitions::read_requests(&args.requests)?;
-    // Each system's variety as it is loaded: the reseeded curves are only for that, and
-    // each set is dropped before the next system is read (the freed memory is reused).
-    let (mut systems, mut varieties, mut deterministic) = (Vec::new(), Vec::new(), Vec::new());
-    for (id, a, c, r) in args.systems() {
-        let system = System::load(id, a, c, r, &reqs, &labeled.frames.controls)?;
-        match system.reseeded(&labeled.frames.controls)? {
-            Some(again) => {
-                let var = variety(&rig, &system, &again)?;
-                varieties.push(metric(&system.id, "variety", "all", "all", &var, "mesh units", 7));
-            }
-            None => deterministic.push(system.id.clone()),
-        }
-        systems.push(system);
-    }
+    let controls = &labeled.frames.controls;
+    let mut systems = args
+        .systems()
+        .into_iter()
+        .map(|(id, a, c, r)| System::load(id, a, c, r, &reqs))
+        .collect::<StageResult<Vec<_>>>()?;
     let scale_rows = scales::read(&args.scales)?;
     let weight = scales::mean_weights(&scale_rows, &labeled.frames.controls);
     let (pca_controls, pcas) = pca::read_models(&args.pca_models)?;
@@ -341,10 +333,14 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     };
 
     let mut out: Vec<Metric> = Vec::new();
-    let mut measured: Vec<Vec<Measured>> = Vec::new();
+    let (mut measured, mut varieties, mut deterministic) = (Vec::new(), Vec::new(), Vec::new());
     for system in &systems {
-        let per = measure_system(&rig, &training, settings, &reqs, system)?;
+        let (per, variety) = measure_system(&rig, &training, settings, &reqs, system, controls)?;
         out.extend(aggregate::system_rows(system, &per, rules));
+        match variety {
+            Some(v) => varieties.push(metric(&system.id, "variety", "all", "all", &v, "mesh units", 7)),
+            None => deterministic.push(system.id.clone()),
+        }
         measured.push(per);
     }
     for (i, a) in systems.iter().enumerate() {
@@ -384,6 +380,18 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     let md = report::markdown(&out, &ctx);
     let speed: Vec<(String, Vec<i64>, Vec<f64>)> =
         systems.iter().zip(&measured).map(|(s, per)| (s.shown.clone(), offsets(), mean_speed(per))).collect();
+    // The player shows a few requests of every system: only their frames are read whole.
+    let arrivals: Vec<std::collections::BTreeMap<i64, f64>> = measured
+        .iter()
+        .map(|per| per.iter().filter_map(|m| Some((m.request, m.perceived_latency?))).collect())
+        .collect();
+    let shown: HashSet<i64> = player::select(&reqs, &systems, &arrivals)
+        .iter()
+        .flat_map(|(_, rs)| rs.iter().map(|(r, _)| r.request))
+        .collect();
+    for s in &mut systems {
+        s.keep_played(&shown, controls)?;
+    }
     let camera_mesh = reprise_stagekit::rig::meshes(&rig, &[labeled.frames.row(0).to_vec()])?;
     let inputs = figures::Inputs {
         args,
@@ -393,6 +401,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         requests: &reqs,
         systems: &systems,
         measured: &measured,
+        arrivals: &arrivals,
         links: &links,
         labels: &labels,
         camera_mesh: &camera_mesh,
@@ -435,42 +444,102 @@ fn starts_on_bridges(reqs: &[Request], links: &[bridges::Bridge], latents: &gplv
         .collect()
 }
 
-/// Every answered request of one system, measured (in parallel).
+/// Every answered request of one system measured, and (where it has seeds) its variety
+/// per request it played under both: one pass over its curves, a chunk of requests at a
+/// time in parallel (the next chunk read meanwhile), each answer's meshes evaluated once
+/// for both measures.
 fn measure_system(
     rig: training::RigRef<'_>,
     training: &Training,
     settings: measure::Settings,
     reqs: &[Request],
     system: &System,
-) -> StageResult<Vec<Measured>> {
-    let todo: Vec<_> =
-        reqs.iter().filter_map(|r| Some((r, system.answer(r)?, system.played.get(&r.request)?))).collect();
-    let bar = reprise_stagekit::progress(todo.len() as u64, &format!("measure {}", system.id));
-    let per: Vec<StageResult<Option<Measured>>> = todo
-        .into_par_iter()
-        .map(|(r, a, p)| {
-            let m = measure::measure(rig, training, settings, r, a, p);
+    controls: &[String],
+) -> StageResult<(Vec<Measured>, Option<Vec<f64>>)> {
+    let mut reader = ChunkReader {
+        by_id: reqs.iter().map(|r| (r.request, r)).collect(),
+        first: system.stream(controls)?,
+        again: system.stream_reseeded(controls)?,
+        waiting: std::collections::BTreeMap::new(),
+        seen: HashSet::new(),
+        system,
+    };
+    let has_seeds = reader.again.is_some();
+    let (mut measured, mut variety) = (Vec::new(), Vec::new());
+    let bar = reprise_stagekit::progress(reqs.len() as u64, &format!("measure {}", system.id));
+    let measure_one = |(r, p, b): Todo<'_>| -> StageResult<(Option<Measured>, Option<f64>)> {
+        if r.is_some() {
             bar.inc(1);
-            m
-        })
-        .collect();
+        }
+        let answer = r.and_then(|r| Some((r, system.answer(r).filter(|a| a.latency.is_some())?)));
+        if answer.is_none() && b.is_none() {
+            return Ok((None, None));
+        }
+        let m = reprise_stagekit::rig::meshes(rig, &p.controls)?;
+        let measured = answer.and_then(|(r, a)| measure::measure_meshed(training, settings, r, a, &p, &m));
+        let v = b.map(|b| measure::variety::between(&m, rig, &b)).transpose()?;
+        Ok((measured, v))
+    };
+    let mut chunk = reader.next_chunk()?;
+    while !chunk.is_empty() {
+        let (next, results) =
+            rayon::join(|| reader.next_chunk(), || chunk.into_par_iter().map(measure_one).collect::<Vec<_>>());
+        for result in results {
+            let (m, v) = result?;
+            measured.extend(m);
+            variety.extend(v.filter(|v| v.is_finite()));
+        }
+        chunk = next?;
+    }
     bar.finish_and_clear();
-    Ok(per.into_iter().collect::<StageResult<Vec<_>>>()?.into_iter().flatten().collect())
+    // An answered request with no frames at all.
+    if let Some(r) = reqs.iter().find(|r| system.answered(r) && !reader.seen.contains(&r.request)) {
+        system.check_reach(r, 0)?;
+    }
+    Ok((measured, has_seeds.then_some(variety)))
 }
 
-/// Variety per request the system answered under both seeds.
-fn variety(
-    rig: training::RigRef<'_>,
-    system: &System,
-    again: &std::collections::BTreeMap<i64, systems::Played>,
-) -> StageResult<Vec<f64>> {
-    let v: Vec<StageResult<f64>> = system
-        .played
-        .par_iter()
-        .filter_map(|(id, a)| again.get(id).map(|b| (a, b)))
-        .map(|(a, b)| measure::variety::measure(rig, a, b))
-        .collect();
-    Ok(v.into_iter().collect::<StageResult<Vec<_>>>()?.into_iter().filter(|v| v.is_finite()).collect())
+/// One script to measure: its request (`None`: not one of the benchmark's), its frames,
+/// and its frames under the other seed.
+type Todo<'r> = (Option<&'r Request>, systems::Played, Option<systems::Played>);
+
+/// A system's curves (and reseeded curves) read a chunk of requests at a time.
+struct ChunkReader<'a> {
+    by_id: HashMap<i64, &'a Request>,
+    first: systems::PlayedStream,
+    again: Option<systems::PlayedStream>,
+    /// Reseeded frames read ahead of their request.
+    waiting: std::collections::BTreeMap<i64, systems::Played>,
+    /// The requests whose frames were read.
+    seen: HashSet<i64>,
+    system: &'a System,
+}
+
+impl<'a> ChunkReader<'a> {
+    /// The next [`reprise_stagekit::CHUNK`] scripts (empty: the end), each checked to
+    /// reach as far as its answer says.
+    fn next_chunk(&mut self) -> StageResult<Vec<Todo<'a>>> {
+        let chunk: Vec<(i64, systems::Played)> =
+            self.first.by_ref().take(reprise_stagekit::CHUNK).collect::<StageResult<_>>()?;
+        let Some(&(last, _)) = chunk.last() else { return Ok(vec![]) };
+        // The other seed's frames of the same requests (both files are in request order).
+        if let Some(again) = self.again.as_mut() {
+            while self.waiting.last_key_value().is_none_or(|(id, _)| *id < last) {
+                let Some((id, p)) = again.next().transpose()? else { break };
+                self.waiting.insert(id, p);
+            }
+        }
+        let mut todo = Vec::with_capacity(chunk.len());
+        for (id, p) in chunk {
+            let r = self.by_id.get(&id).copied();
+            if let Some(r) = r {
+                self.system.check_reach(r, p.controls.len())?;
+                self.seen.insert(r.request);
+            }
+            todo.push((r, p, self.waiting.remove(&id)));
+        }
+        Ok(todo)
+    }
 }
 
 fn offsets() -> Vec<i64> {

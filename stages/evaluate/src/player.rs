@@ -472,13 +472,7 @@ mod tests {
             .iter()
             .map(|r| (r.request, latency(r.request).map_or_else(|| Answer::failed("no"), |l| Answer::reached(0, l))))
             .collect();
-        System {
-            id: id.into(),
-            shown: id.into(),
-            answers: Answers { system: id.into(), by_request },
-            played: BTreeMap::new(),
-            reseeded_curves: None,
-        }
+        System::in_memory(id, Answers { system: id.into(), by_request }, BTreeMap::new())
     }
 
     /// Pairs: the one a system fails comes first, then the widest latency spread, and no

@@ -1,9 +1,9 @@
 //! The systems compared on the transition benchmark, and what each of them played.
 
-use std::collections::BTreeMap;
-use std::path::Path;
+use std::collections::{BTreeMap, HashSet};
+use std::path::{Path, PathBuf};
 
-use reprise_artifact::curves::{self, Curves};
+use reprise_artifact::curves;
 use reprise_artifact::transitions::{self, Answer, Answers, Request};
 use reprise_stagekit::{StageError, StageResult};
 
@@ -20,7 +20,9 @@ pub struct Played {
     pub x: Vec<Vec<f64>>,
 }
 
-/// One system: its answers and the frames it played for each answered request.
+/// One system: its answers, and where the frames it played are. The frames are streamed
+/// request by request ([`System::stream`]) — a benchmark's curves do not fit in memory —
+/// except those of the requests the player shows ([`System::keep_played`]).
 #[derive(Debug, Clone)]
 pub struct System {
     /// Id (see [`reprise_benchmark::systems::SYSTEMS`]).
@@ -29,12 +31,15 @@ pub struct System {
     pub shown: String,
     /// Its answers, one per request.
     pub answers: Answers,
-    /// Frames per request id.
+    /// Frames of the requests kept by [`System::keep_played`], per request id.
     pub played: BTreeMap<i64, Played>,
+    /// The file its answers came from.
+    pub answers_file: PathBuf,
+    /// Its curves: one script `r<id>` per request it played, in request order.
+    pub curves: PathBuf,
     /// The curves of the same requests answered under other seeds, where the system has
-    /// seeds: read only by [`Self::reseeded`], for the variety measure, and dropped after
-    /// it (they are as large as the curves themselves).
-    pub reseeded_curves: Option<std::path::PathBuf>,
+    /// seeds (for the variety measure).
+    pub reseeded_curves: Option<PathBuf>,
 }
 
 impl System {
@@ -48,16 +53,14 @@ impl System {
         self.answer(r).is_some_and(|a| a.latency.is_some())
     }
 
-    /// Loads a system's answers and curves and checks them against the requests and the
-    /// controls: the file says it is `id`'s, answers every request once, and the frames of
-    /// every answered request reach as far as its latency says.
+    /// Loads a system's answers and checks them against the requests: the file says it is
+    /// `id`'s and answers every request once. Its curves are checked as they are streamed.
     pub fn load(
         id: &str,
         answers: &Path,
-        curves_path: &Path,
+        curves: &Path,
         reseeded: Option<&Path>,
         requests: &[Request],
-        controls: &[String],
     ) -> StageResult<Self> {
         let shown = reprise_benchmark::systems::shown(id).to_string();
         let a = transitions::read_answers(answers)?;
@@ -75,72 +78,150 @@ impl System {
                 r.request
             )));
         }
-        let played = read_played(curves_path, controls)?;
-        for r in requests {
-            let ans = a.get(r.request).expect("checked above");
-            if let Some(l) = ans.latency {
-                let len = played.get(&r.request).map_or(0, |p| p.controls.len()) as i64;
-                if ans.asked + l >= len {
-                    return Err(StageError::Input(format!(
-                        "{}: request {} is answered at frame {} but {} holds {len} frames of it",
-                        answers.display(),
-                        r.request,
-                        ans.asked + l,
-                        curves_path.display()
-                    )));
-                }
+        Ok(Self {
+            id: id.into(),
+            shown,
+            answers: a,
+            played: BTreeMap::new(),
+            answers_file: answers.into(),
+            curves: curves.into(),
+            reseeded_curves: reseeded.map(Path::to_path_buf),
+        })
+    }
+
+    /// The system's frames, request by request in file order.
+    pub fn stream(&self, controls: &[String]) -> StageResult<PlayedStream> {
+        PlayedStream::open(&self.curves, controls)
+    }
+
+    /// The frames played under the other seeds (`None`: the system has no seeds).
+    pub fn stream_reseeded(&self, controls: &[String]) -> StageResult<Option<PlayedStream>> {
+        self.reseeded_curves.as_deref().map(|p| PlayedStream::open(p, controls)).transpose()
+    }
+
+    /// Reads the frames of the requests `ids` into [`System::played`].
+    pub fn keep_played(&mut self, ids: &HashSet<i64>, controls: &[String]) -> StageResult<()> {
+        self.played.clear();
+        for item in self.stream(controls)? {
+            let (id, p) = item?;
+            if ids.contains(&id) {
+                self.played.insert(id, p);
             }
         }
-        Ok(Self { id: id.into(), shown, answers: a, played, reseeded_curves: reseeded.map(Path::to_path_buf) })
+        Ok(())
     }
 
-    /// The frames played under the other seeds, per request (`None`: the system has no
-    /// seeds), checked against `controls` as the curves are.
-    pub fn reseeded(&self, controls: &[String]) -> StageResult<Option<BTreeMap<i64, Played>>> {
-        self.reseeded_curves.as_deref().map(|p| read_played(p, controls)).transpose()
+    /// Checks that the `len` frames played for `r` reach as far as its answer says.
+    pub fn check_reach(&self, r: &Request, len: usize) -> StageResult<()> {
+        let Some(ans) = self.answer(r) else { return Ok(()) };
+        match ans.latency {
+            Some(l) if ans.asked + l >= len as i64 => Err(StageError::Input(format!(
+                "{}: request {} is answered at frame {} but {} holds {len} frames of it",
+                self.answers_file.display(),
+                r.request,
+                ans.asked + l,
+                self.curves.display()
+            ))),
+            _ => Ok(()),
+        }
+    }
+
+    /// A system given in memory (`id`, its answers and its frames; no files), as tests
+    /// and synthetic systems build one.
+    pub fn in_memory(id: &str, answers: Answers, played: BTreeMap<i64, Played>) -> Self {
+        Self {
+            id: id.into(),
+            shown: id.into(),
+            answers,
+            played,
+            answers_file: PathBuf::new(),
+            curves: PathBuf::new(),
+            reseeded_curves: None,
+        }
     }
 }
 
-/// A curves file's frames per request, after checking that it lists `controls`.
-fn read_played(p: &Path, controls: &[String]) -> StageResult<BTreeMap<i64, Played>> {
-    let c = curves::read(p)?;
-    if c.controls != controls {
-        return Err(StageError::Input(format!("{} lists other controls than the labeled frames", p.display())));
+/// A curves file's frames per request, one request at a time, in file order: scripts are
+/// named `r<id>` (other scripts are skipped) and come in increasing request order, as the
+/// benchmark's stages write them; anything else is an error naming the file.
+pub struct PlayedStream {
+    scripts: curves::Scripts,
+    path: PathBuf,
+    /// File rows before the current script (for error messages).
+    row: usize,
+    last: Option<i64>,
+}
+
+impl PlayedStream {
+    /// Opens `path`, checking that it lists `controls`.
+    pub fn open(path: &Path, controls: &[String]) -> StageResult<Self> {
+        let scripts = curves::Scripts::open(path)?;
+        if scripts.controls != controls {
+            return Err(StageError::Input(format!("{} lists other controls than the labeled frames", path.display())));
+        }
+        Ok(Self { scripts, path: path.into(), row: 0, last: None })
     }
-    // A non-finite control would measure as a perfect score (every comparison with NaN is
-    // false): refused, naming the row and the control.
-    let n = controls.len().max(1);
-    if let Some(i) = c.values.iter().position(|v| !v.is_finite()) {
+
+    fn next_played(&mut self) -> StageResult<Option<(i64, Played)>> {
+        loop {
+            let Some(script) = self.scripts.next().transpose()? else { return Ok(None) };
+            let first_row = self.row;
+            self.row += script.frame.len();
+            let Some(id) = script.name.strip_prefix('r').and_then(|s| s.parse::<i64>().ok()) else { continue };
+            if self.last.is_some_and(|last| id <= last) {
+                return Err(StageError::Input(format!(
+                    "{}: script `{}` (row {first_row}) comes after request {}: the scripts must be one per \
+                     request, in request order; rerun the stage that wrote it",
+                    self.path.display(),
+                    script.name,
+                    self.last.unwrap_or_default()
+                )));
+            }
+            self.last = Some(id);
+            return played(&self.path, script, first_row).map(|p| Some((id, p)));
+        }
+    }
+}
+
+impl Iterator for PlayedStream {
+    type Item = StageResult<(i64, Played)>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        self.next_played().transpose()
+    }
+}
+
+/// One script's frames. A non-finite control would measure as a perfect score (every
+/// comparison with NaN is false): refused, naming the row and the control.
+fn played(path: &Path, s: curves::Script, first_row: usize) -> StageResult<Played> {
+    let frames = s.frame.len();
+    let n = if frames == 0 { 0 } else { s.values.len() / frames };
+    if let Some(i) = s.values.iter().position(|v| !v.is_finite()) {
         return Err(StageError::Input(format!(
-            "{}: row {} (script `{}`, frame {}), control `{}` is {}; rerun the stage that wrote it",
-            p.display(),
-            i / n,
-            c.script.get(i / n).map_or("", String::as_str),
-            c.frame.get(i / n).copied().unwrap_or(-1),
-            controls.get(i % n).map_or("", String::as_str),
-            c.values[i]
+            "{}: row {} (script `{}`, frame {}), control {} is {}; rerun the stage that wrote it",
+            path.display(),
+            first_row + i / n.max(1),
+            s.name,
+            s.frame.get(i / n.max(1)).copied().unwrap_or(-1),
+            i % n.max(1),
+            s.values[i]
         )));
     }
-    Ok(by_request(&c))
-}
-
-/// Frames per request: scripts are named `r<id>`; other scripts are ignored.
-pub fn by_request(c: &Curves) -> BTreeMap<i64, Played> {
-    let n = c.controls.len();
-    let mut out: BTreeMap<i64, Played> = BTreeMap::new();
-    for r in 0..c.script.len() {
-        let Some(id) = c.script[r].strip_prefix('r').and_then(|s| s.parse().ok()) else { continue };
-        let p = out.entry(id).or_default();
-        p.controls.push(c.values[r * n..(r + 1) * n].to_vec());
-        p.model.push(c.model[r].clone());
-        p.x.push(c.x[r].clone());
-    }
-    out
+    Ok(Played {
+        controls: s.values.chunks_exact(n.max(1)).take(frames).map(<[f64]>::to_vec).collect(),
+        model: s.model,
+        x: s.x,
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use reprise_artifact::curves::Curves;
+
+    fn read_all(path: &Path, controls: &[String]) -> StageResult<BTreeMap<i64, Played>> {
+        PlayedStream::open(path, controls)?.collect()
+    }
 
     /// A curves file with a non-finite control is refused, naming the file (it would
     /// otherwise measure as a perfect score); the same file without it loads.
@@ -157,12 +238,12 @@ mod tests {
         let refused = curves::write(&path, &c, &provenance)
             .err()
             .map(|e| e.to_string())
-            .or_else(|| read_played(&path, &controls).err().map(|e| e.to_string()));
+            .or_else(|| read_all(&path, &controls).err().map(|e| e.to_string()));
         let e = refused.expect("a NaN control must not load");
         assert!(e.contains("curves.parquet") && (e.contains("NaN") || e.contains("finite")), "{e}");
         c.values[3] = 0.3;
         curves::write(&path, &c, &provenance).unwrap();
-        assert_eq!(read_played(&path, &controls).unwrap()[&7].controls[1], vec![0.2, 0.3]);
+        assert_eq!(read_all(&path, &controls).unwrap()[&7].controls[1], vec![0.2, 0.3]);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

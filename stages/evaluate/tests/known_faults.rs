@@ -205,13 +205,7 @@ fn run() -> Run {
                 },
             );
         }
-        let system = System {
-            id: fault.into(),
-            shown: fault.into(),
-            answers: Answers { system: fault.into(), by_request },
-            played,
-            reseeded_curves: None,
-        };
+        let system = System::in_memory(fault, Answers { system: fault.into(), by_request }, played);
         let per: Vec<Measured> = reqs
             .iter()
             .filter_map(|r| {

@@ -488,13 +488,12 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
         .num_threads(args.threads)
         .build()
         .map_err(|e| StageError::Config(format!("thread pool: {e}")))?;
-    let evals_per_fit = 2 * config.optimizer.max_iters() as u64 + 2;
-    let fits_per_label = if checker.is_some() { 2 } else { 1 };
     let results: Vec<StageResult<(Fit, FitSummary)>> = pool.install(|| {
         labels
             .par_iter()
             .map(|l| {
-                let bar = reprise_stagekit::progress_in(&multi, evals_per_fit * fits_per_label, &l.label);
+                // A fit stops when it converges: the bar counts evaluations, with no total.
+                let bar = reprise_stagekit::counter_in(&multi, &l.label, "objective evaluations");
                 // The fit and the held-out refit are independent: two tasks, so that the
                 // largest label's pair can take both cores.
                 let (fit, held) = rayon::join(

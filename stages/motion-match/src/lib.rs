@@ -26,8 +26,7 @@ use std::path::PathBuf;
 
 use clap::Parser;
 use rand::{Rng, SeedableRng};
-use rayon::prelude::*;
-use reprise_artifact::curves::{self, Curves};
+use reprise_artifact::curves;
 use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::scales;
 use reprise_artifact::transitions::{self, Answer, Request};
@@ -221,50 +220,54 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
         ControllerSettings { search_interval: args.search_interval, halflife: args.halflife, exclude_radius: None };
     let interval = settings.interval_frames(fps);
     let bar = reprise_stagekit::progress(reqs.len() as u64, "motion-match");
-    let answers: Vec<StageResult<(Request, [Reply; 2])>> = reqs
-        .par_iter()
-        .map(|r| {
-            let start = *corpus.rows.get(&(r.segment_id, r.frame)).ok_or_else(|| {
-                StageError::Input(format!(
-                    "{}: request {} starts at segment {} frame {}, which {} does not have; rerun transitions",
-                    args.requests.display(),
-                    r.request,
-                    r.segment_id,
-                    r.frame,
-                    args.labeled_frames.display()
-                ))
-            })?;
-            let Some(target) = corpus.labels.iter().position(|l| *l == r.to) else {
-                let none = || (Answer::failed(format!("no frame of `{}` in the database", r.to)), vec![]);
-                return Ok((r.clone(), [none(), none()]));
-            };
-            let target = target as u32;
-            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed.wrapping_add(r.request as u64));
-            let first_search = rng.gen_range(0..interval);
-            let request = TransitionRequest { start, target, first_search, frames: timeout };
-            let mm = corpus.reply(start, transition(&corpus.db, &corpus.feats, &request, &settings), after, &r.to);
-            let fade =
-                corpus.reply(start, crossfade(&corpus.db, start, target, args.blend_frames, timeout), after, &r.to);
-            bar.inc(1);
-            Ok((r.clone(), [mm, fade]))
-        })
-        .collect();
-    bar.finish_and_clear();
-    let answers: Vec<(Request, [Reply; 2])> = answers.into_iter().collect::<StageResult<_>>()?;
     let outputs = [
         ("motion-matching", &args.mm_answers, &args.mm_curves),
         ("crossfade", &args.crossfade_answers, &args.crossfade_curves),
     ];
-    for (s, (system, answers_path, curves_path)) in outputs.into_iter().enumerate() {
-        let rows: Vec<(i64, Answer)> = answers.iter().map(|(r, a)| (r.request, a[s].0.clone())).collect();
-        let mut c = Curves { fps, controls: labeled.frames.controls.clone(), ..Default::default() };
-        for (r, a) in &answers {
-            c.push_script(&format!("r{}", r.request), a[s].1.iter().map(|(l, p)| curves::Frame::plain(l, p)));
+    let controls = &labeled.frames.controls;
+    let mut writers = outputs.map(|(_, _, c)| curves::Writer::create(c, fps, controls, &provenance));
+    let mut answered: Answered = Vec::with_capacity(reqs.len());
+    let answer = |r: &Request| -> StageResult<(Request, [Reply; 2])> {
+        let start = *corpus.rows.get(&(r.segment_id, r.frame)).ok_or_else(|| {
+            StageError::Input(format!(
+                "{}: request {} starts at segment {} frame {}, which {} does not have; rerun transitions",
+                args.requests.display(),
+                r.request,
+                r.segment_id,
+                r.frame,
+                args.labeled_frames.display()
+            ))
+        })?;
+        let Some(target) = corpus.labels.iter().position(|l| *l == r.to) else {
+            let none = || (Answer::failed(format!("no frame of `{}` in the database", r.to)), vec![]);
+            return Ok((r.clone(), [none(), none()]));
+        };
+        let target = target as u32;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed.wrapping_add(r.request as u64));
+        let first_search = rng.gen_range(0..interval);
+        let request = TransitionRequest { start, target, first_search, frames: timeout };
+        let mm = corpus.reply(start, transition(&corpus.db, &corpus.feats, &request, &settings), after, &r.to);
+        let fade = corpus.reply(start, crossfade(&corpus.db, start, target, args.blend_frames, timeout), after, &r.to);
+        bar.inc(1);
+        Ok((r.clone(), [mm, fade]))
+    };
+    // Requests are answered a chunk at a time and their frames written before the next.
+    reprise_stagekit::par_map_chunked(&reqs, answer, |reply| {
+        let (r, replies) = reply?;
+        for (w, (_, frames)) in writers.iter_mut().zip(&replies) {
+            w.push_script(&format!("r{}", r.request), frames.iter().map(|(l, p)| curves::Frame::plain(l, p)))?;
         }
+        let [mm, fade] = replies;
+        answered.push((r, [mm.0, fade.0]));
+        Ok(())
+    })?;
+    bar.finish_and_clear();
+    for (s, ((system, answers_path, _), w)) in outputs.into_iter().zip(writers).enumerate() {
+        let rows: Vec<(i64, Answer)> = answered.iter().map(|(r, a)| (r.request, a[s].clone())).collect();
         transitions::write_answers(answers_path, system, &rows, &provenance)?;
-        curves::write(curves_path, &c, &provenance)?;
+        w.finish()?;
     }
-    Ok(Some(answers.into_iter().map(|(r, [a, b])| (r, [a.0, b.0])).collect()))
+    Ok(Some(answered))
 }
 
 /// What the stage reads and writes, for the runner's wiring by artifact

@@ -22,8 +22,7 @@ use std::path::PathBuf;
 
 use clap::Parser;
 use rand::{Rng, SeedableRng};
-use rayon::prelude::*;
-use reprise_artifact::curves::{self, Curves};
+use reprise_artifact::curves;
 use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::motion_graph;
 use reprise_artifact::transitions::{self, Answer, Request};
@@ -84,8 +83,12 @@ pub struct Args {
     #[serde(skip)]
     pub baseline_reseeded: PathBuf,
     /// Requests per ordered pair of labels.
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 20)]
     pub per_pair: usize,
+    /// At most this many requests in all: with many labels, fewer per pair (at least one;
+    /// the stage says when it lowers `per_pair`).
+    #[arg(long, default_value_t = 1200)]
+    pub max_requests: usize,
     /// Seed of the start frames (and of reprise's random force, + request id).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -215,6 +218,13 @@ impl Baseline<'_> {
     }
 }
 
+/// Requests per ordered pair of `labels` labels: `wanted`, or fewer so that all pairs
+/// together stay within `budget` — but at least one per pair.
+fn requests_per_pair(wanted: usize, budget: usize, labels: usize) -> usize {
+    let pairs = labels * labels.saturating_sub(1);
+    wanted.min((budget / pairs.max(1)).max(1))
+}
+
 /// Frames from the request to the first frame of `to`: `request` is the index of the
 /// last frame before the request (the start pose for the baseline, the end of the hold
 /// for reprise), so a hold before the request counts for no one.
@@ -225,6 +235,7 @@ fn latency(p: &Played, to: &str, request: usize) -> Option<i64> {
 /// Runs the stage; returns the requests with each system's answers.
 pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     if args.per_pair == 0
+        || args.max_requests == 0
         || args.hold.is_nan()
         || args.hold < 0.0
         || args.hold > reprise_synth_engine::script::MAX_SECONDS
@@ -232,7 +243,8 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
         || !(0.0..=10.0).contains(&args.path_slack)
     {
         return Err(StageError::Config(
-            "need --per-pair >= 1, 0 <= --hold <= 3600, --window >= 2, --path-slack in [0, 10]".into(),
+            "need --per-pair >= 1, --max-requests >= 1, 0 <= --hold <= 3600, --window >= 2, --path-slack in [0, 10]"
+                .into(),
         ));
     }
     if args.check {
@@ -264,6 +276,15 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     let hold_frames = (args.hold * labeled.frames.fps).round() as usize;
     // The seeded requests.
     let labels: Vec<String> = models.models.iter().map(|m| m.label.clone()).collect();
+    let per_pair = requests_per_pair(args.per_pair, args.max_requests, labels.len());
+    if per_pair < args.per_pair {
+        eprintln!(
+            "transitions: {} ordered pairs × {} requests would pass --max-requests {}: {per_pair} per pair",
+            labels.len() * labels.len().saturating_sub(1),
+            args.per_pair,
+            args.max_requests
+        );
+    }
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed);
     let mut requests = Vec::new();
     for a in &labels {
@@ -275,7 +296,7 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
             )));
         }
         for b in labels.iter().filter(|b| *b != a) {
-            for _ in 0..args.per_pair {
+            for _ in 0..per_pair {
                 let r = rows[rng.gen_range(0..rows.len())];
                 requests.push((requests.len(), a.clone(), b.clone(), r));
             }
@@ -291,98 +312,102 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
         slack: args.path_slack,
     };
     let bar = reprise_stagekit::progress(requests.len() as u64, "transitions");
-    let answers: Vec<Answers> = requests
-        .par_iter()
-        .map(|(id, a, b, r)| {
-            let hold =
-                Command::Idle { duration: args.hold.max(1.0 / settings.fps), radius: None, poses: vec![], hover: None };
-            let seed = args.seed.wrapping_add(*id as u64);
-            let script = Script {
-                name: Some(format!("r{id}")),
-                seed,
-                start: Start {
-                    label: a.clone(),
-                    segment: Some(labeled.segment_id[*r]),
-                    clip: None,
-                    frame: Some(labeled.frames.frame[*r]),
-                    latent: None,
-                },
-                commands: vec![hold.clone(), Command::Transition { to: b.clone(), blend_frames: None }, hold],
-            };
-            // reprise is asked after its hold: at the hold's last frame; the baseline at
-            // its start frame.
-            let ours = |seed: u64| {
-                engine::run(&lib, &Script { seed, ..script.clone() }, &settings)
-                    .map(|f| {
-                        let asked = f.iter().position(|f| f.command == 1).map_or(0, |i| i.saturating_sub(1));
-                        let played = f.into_iter().map(|f| PlayedFrame {
-                            label: labels[f.model].clone(),
-                            controls: f.controls,
-                            x: f.x,
-                            command: f.command as i64,
-                        });
-                        (asked, played.collect::<Played>())
-                    })
-                    .map_err(|e| e.to_string())
-            };
-            let theirs = |seed: u64| base.answer(*r, b, seed).map(|p| (0, p));
-            let answer = |p: &Result<(usize, Played), String>| match p {
-                Ok((asked, p)) => match latency(p, b, *asked) {
-                    Some(l) => Answer::reached(*asked, l),
-                    None => Answer { asked: *asked as i64, ..Answer::failed(format!("never reached `{b}`")) },
-                },
-                Err(e) => Answer::failed(e.clone()),
-            };
-            let system = |play: &dyn Fn(u64) -> Result<(usize, Played), String>| {
-                let first = play(seed);
-                let again = play(seed.wrapping_add(RESEED)).map(|(_, p)| p);
-                (answer(&first), first.map(|(_, p)| p), again)
-            };
-            let request = Request {
-                request: *id as i64,
-                from: a.clone(),
-                to: b.clone(),
-                segment_id: labeled.segment_id[*r],
-                clip: labeled.frames.clip[*r].clone(),
-                frame: labeled.frames.frame[*r],
-            };
-            bar.inc(1);
-            Answers { request, systems: [system(&ours), system(&theirs)] }
-        })
-        .collect();
-    bar.finish_and_clear();
     let fps = labeled.frames.fps;
-    let curves_of = |s: usize, again: bool| {
-        let mut c = Curves { fps, controls: models.controls.clone(), ..Default::default() };
-        for ans in &answers {
-            let (_, first, second) = &ans.systems[s];
-            if let Ok(p) = if again { second } else { first } {
-                c.push_script(
-                    &format!("r{}", ans.request.request),
-                    p.iter().map(|f| curves::Frame {
-                        model: &f.label,
-                        controls: &f.controls,
-                        x: &f.x,
-                        command: f.command,
-                    }),
-                );
-            }
-        }
-        c
-    };
     let outputs = [
         (&args.reprise_answers, &args.reprise_curves, &args.reprise_reseeded),
         (&args.baseline_answers, &args.baseline_curves, &args.baseline_reseeded),
     ];
-    for (s, (answers_path, curves_path, reseeded_path)) in outputs.into_iter().enumerate() {
-        let rows: Vec<(i64, Answer)> = answers.iter().map(|a| (a.request.request, a.systems[s].0.clone())).collect();
+    // Requests are answered a chunk at a time and their frames written before the next
+    // chunk: the stage holds a chunk's frames, not the benchmark's.
+    let mut writers =
+        outputs.map(|(_, c, r)| [c, r].map(|p| curves::Writer::create(p, fps, &models.controls, &provenance)));
+    let mut answered: Answered = Vec::with_capacity(requests.len());
+    let answer = |(id, a, b, r): &(usize, String, String, usize)| {
+        let hold =
+            Command::Idle { duration: args.hold.max(1.0 / settings.fps), radius: None, poses: vec![], hover: None };
+        let seed = args.seed.wrapping_add(*id as u64);
+        let script = Script {
+            name: Some(format!("r{id}")),
+            seed,
+            start: Start {
+                label: a.clone(),
+                segment: Some(labeled.segment_id[*r]),
+                clip: None,
+                frame: Some(labeled.frames.frame[*r]),
+                latent: None,
+            },
+            commands: vec![hold.clone(), Command::Transition { to: b.clone(), blend_frames: None }, hold],
+        };
+        // reprise is asked after its hold: at the hold's last frame; the baseline at
+        // its start frame.
+        let ours = |seed: u64| {
+            engine::run(&lib, &Script { seed, ..script.clone() }, &settings)
+                .map(|f| {
+                    let asked = f.iter().position(|f| f.command == 1).map_or(0, |i| i.saturating_sub(1));
+                    let played = f.into_iter().map(|f| PlayedFrame {
+                        label: labels[f.model].clone(),
+                        controls: f.controls,
+                        x: f.x,
+                        command: f.command as i64,
+                    });
+                    (asked, played.collect::<Played>())
+                })
+                .map_err(|e| e.to_string())
+        };
+        let theirs = |seed: u64| base.answer(*r, b, seed).map(|p| (0, p));
+        let answer = |p: &Result<(usize, Played), String>| match p {
+            Ok((asked, p)) => match latency(p, b, *asked) {
+                Some(l) => Answer::reached(*asked, l),
+                None => Answer { asked: *asked as i64, ..Answer::failed(format!("never reached `{b}`")) },
+            },
+            Err(e) => Answer::failed(e.clone()),
+        };
+        let system = |play: &dyn Fn(u64) -> Result<(usize, Played), String>| {
+            let first = play(seed);
+            let again = play(seed.wrapping_add(RESEED)).map(|(_, p)| p);
+            (answer(&first), first.map(|(_, p)| p), again)
+        };
+        let request = Request {
+            request: *id as i64,
+            from: a.clone(),
+            to: b.clone(),
+            segment_id: labeled.segment_id[*r],
+            clip: labeled.frames.clip[*r].clone(),
+            frame: labeled.frames.frame[*r],
+        };
+        bar.inc(1);
+        Answers { request, systems: [system(&ours), system(&theirs)] }
+    };
+    reprise_stagekit::par_map_chunked(&requests, answer, |ans: Answers| {
+        let id = ans.request.request;
+        for (out, (_, first, again)) in writers.iter_mut().zip(&ans.systems) {
+            for (w, played) in out.iter_mut().zip([first, again]) {
+                if let Ok(p) = played {
+                    let frames = p.iter().map(|f| curves::Frame {
+                        model: &f.label,
+                        controls: &f.controls,
+                        x: &f.x,
+                        command: f.command,
+                    });
+                    w.push_script(&format!("r{id}"), frames)?;
+                }
+            }
+        }
+        let [ours, theirs] = ans.systems;
+        answered.push((ans.request, [ours.0, theirs.0]));
+        Ok(())
+    })?;
+    bar.finish_and_clear();
+    for (s, ((answers_path, _, _), out)) in outputs.into_iter().zip(writers).enumerate() {
+        let rows: Vec<(i64, Answer)> = answered.iter().map(|(r, a)| (r.request, a[s].clone())).collect();
         transitions::write_answers(answers_path, SYSTEMS[s], &rows, &provenance)?;
-        curves::write(curves_path, &curves_of(s, false), &provenance)?;
-        curves::write(reseeded_path, &curves_of(s, true), &provenance)?;
+        for w in out {
+            w.finish()?;
+        }
     }
-    let reqs: Vec<Request> = answers.iter().map(|a| a.request.clone()).collect();
+    let reqs: Vec<Request> = answered.iter().map(|(r, _)| r.clone()).collect();
     transitions::write_requests(&args.requests, &reqs, &provenance)?;
-    Ok(Some(answers.into_iter().map(|a| (a.request, [a.systems[0].0.clone(), a.systems[1].0.clone()])).collect()))
+    Ok(Some(answered))
 }
 
 /// What the stage reads and writes, for the runner's wiring by artifact
@@ -484,5 +509,15 @@ mod tests {
             assert_eq!(to_b, (leave - start) + k, "{v:?}");
             assert_eq!(v.len(), to_b + 1 + 3, "then the hold plays on in B");
         }
+    }
+
+    /// 8 labels keep 20 per pair within 1,200 requests; 48 labels get 1 per pair (2,256
+    /// pairs: the budget cannot give fewer than one each); 12 labels get 9.
+    #[test]
+    fn many_labels_get_fewer_requests_per_pair() {
+        assert_eq!(requests_per_pair(20, 1200, 8), 20);
+        assert_eq!(requests_per_pair(20, 1200, 12), 9);
+        assert_eq!(requests_per_pair(20, 1200, 48), 1);
+        assert_eq!(requests_per_pair(5, 1200, 2), 5);
     }
 }

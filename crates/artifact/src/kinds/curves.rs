@@ -12,10 +12,11 @@
 //!
 //! Metadata: `reprise.fps`.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::error::Result;
 use crate::provenance::Provenance;
+use crate::stream::{TableStream, TableWriter, ROW_GROUP_ROWS};
 use crate::table::{Columns, Kind, Table};
 
 /// Kind of the curves table.
@@ -81,11 +82,103 @@ impl Curves {
 
 /// Writes curves atomically. Every row's latent point has the same dimension (0: none).
 pub fn write(path: &Path, c: &Curves, provenance: &Provenance) -> Result<()> {
-    let q = c.x.first().map_or(0, Vec::len);
+    let mut w = Writer::create(path, c.fps, &c.controls, provenance);
+    w.write(c)?;
+    w.finish()
+}
+
+/// Curves written a few thousand rows at a time ([`ROW_GROUP_ROWS`]), so a stage that
+/// plays many scripts never holds them all: push scripts in order, then
+/// [`Writer::finish`]. The first row fixes the latent dimension (no row: none). Nothing
+/// appears at the path before `finish`; an error or a drop before it leaves the old file
+/// as it was.
+pub struct Writer {
+    path: PathBuf,
+    provenance: Provenance,
+    /// The open file and its rows' latent dimension, from the first rows written.
+    table: Option<(TableWriter, usize)>,
+    /// Rows not yet written (fps and controls as the table's).
+    buf: Curves,
+    /// Rows written so far (for error messages).
+    written: usize,
+}
+
+impl Writer {
+    /// A curves file of `controls` at `fps`, to be filled.
+    pub fn create(path: &Path, fps: f64, controls: &[String], provenance: &Provenance) -> Self {
+        let buf = Curves { fps, controls: controls.to_vec(), ..Default::default() };
+        Self { path: path.into(), provenance: provenance.clone(), table: None, buf, written: 0 }
+    }
+
+    /// Appends one script played frame by frame (see [`Curves::push_script`]).
+    pub fn push_script<'a>(&mut self, script: &str, frames: impl IntoIterator<Item = Frame<'a>>) -> Result<()> {
+        self.buf.push_script(script, frames);
+        if self.buf.script.len() >= ROW_GROUP_ROWS {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    /// Appends every row of `c` (its controls must be the writer's).
+    pub fn write(&mut self, c: &Curves) -> Result<()> {
+        if c.controls != self.buf.controls {
+            return Err(crate::error::ArtifactError::Invalid {
+                path: self.path.clone(),
+                message: "curves appended with other controls than the file's (internal error)".into(),
+            });
+        }
+        self.flush()?;
+        self.append(c)
+    }
+
+    fn flush(&mut self) -> Result<()> {
+        if self.buf.script.is_empty() {
+            return Ok(());
+        }
+        let (fps, controls) = (self.buf.fps, self.buf.controls.clone());
+        let rows = std::mem::replace(&mut self.buf, Curves { fps, controls, ..Default::default() });
+        self.append(&rows)
+    }
+
+    fn append(&mut self, c: &Curves) -> Result<()> {
+        let q = c.x.first().map(Vec::len);
+        let (table, q) = match &mut self.table {
+            Some((t, q)) => (t, *q),
+            None if q.is_none() => return Ok(()),
+            None => {
+                let q = q.unwrap_or(0);
+                let t = self.open(q)?;
+                let (t, _) = self.table.insert((t, q));
+                (t, q)
+            }
+        };
+        table.write(columns(c, q, self.written, &self.path)?)?;
+        self.written += c.script.len();
+        Ok(())
+    }
+
+    fn open(&self, q: usize) -> Result<TableWriter> {
+        let empty = Curves { fps: self.buf.fps, controls: self.buf.controls.clone(), ..Default::default() };
+        let meta = [("reprise.fps".into(), self.buf.fps.to_string())];
+        TableWriter::create(&self.path, CURVES, columns(&empty, q, 0, &self.path)?, &self.provenance, &meta)
+    }
+
+    /// Writes the rest and puts the file in place.
+    pub fn finish(mut self) -> Result<()> {
+        self.flush()?;
+        match self.table.take() {
+            Some((t, _)) => t.finish(),
+            None => self.open(0)?.finish(),
+        }
+    }
+}
+
+/// The columns of `c`'s rows (file rows `first_row…`), each with a `q`-d latent point.
+fn columns(c: &Curves, q: usize, first_row: usize, path: &Path) -> Result<Columns> {
     if let Some(r) = c.x.iter().position(|x| x.len() != q) {
         return Err(crate::error::ArtifactError::Invalid {
             path: path.into(),
-            message: format!("row {r} has a {}-d latent point where row 0 has {q}", c.x[r].len()),
+            message: format!("row {} has a {}-d latent point where row 0 has {q}", first_row + r, c.x[r].len()),
         });
     }
     let mut cols = Columns::new()
@@ -101,12 +194,16 @@ pub fn write(path: &Path, c: &Curves, provenance: &Provenance) -> Result<()> {
     for (j, name) in c.controls.iter().enumerate() {
         cols = cols.f64(name, c.values.iter().skip(j).step_by(n.max(1)).copied().collect());
     }
-    crate::table::write(path, CURVES, cols, provenance, &[("reprise.fps".into(), c.fps.to_string())])
+    Ok(cols)
 }
 
-/// Reads curves.
+/// Reads curves whole.
 pub fn read(path: &Path) -> Result<Curves> {
-    let t = Table::read(path, CURVES)?;
+    from_table(&Table::read(path, CURVES)?)
+}
+
+/// The curves of a table (a whole file or a chunk of one).
+fn from_table(t: &Table) -> Result<Curves> {
     let fps: f64 = t.meta("reprise.fps")?.parse().map_err(|_| t.invalid("reprise.fps is not a number"))?;
     let xs: Vec<String> = (0..).map(|k| format!("x{k}")).take_while(|n| t.has_column(n)).collect();
     let fixed = ["script", "frame", "time", "model", "command"];
@@ -125,6 +222,112 @@ pub fn read(path: &Path) -> Result<Curves> {
         values: (0..t.rows()).flat_map(|r| ccols.iter().map(move |c| c[r])).collect(),
         controls,
     })
+}
+
+/// One script's rows, as [`Scripts`] yields them.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Script {
+    /// The script's name.
+    pub name: String,
+    /// Frame per row.
+    pub frame: Vec<i64>,
+    /// Model label per row.
+    pub model: Vec<String>,
+    /// Command per row.
+    pub command: Vec<i64>,
+    /// Latent point per row.
+    pub x: Vec<Vec<f64>>,
+    /// Controls per row (row-major, `rows × controls`).
+    pub values: Vec<f64>,
+}
+
+impl Script {
+    /// Rows `r` of `c` appended.
+    fn extend(&mut self, c: &Curves, r: std::ops::Range<usize>) {
+        let n = c.controls.len();
+        self.frame.extend_from_slice(&c.frame[r.clone()]);
+        self.model.extend_from_slice(&c.model[r.clone()]);
+        self.command.extend_from_slice(&c.command[r.clone()]);
+        self.x.extend_from_slice(&c.x[r.clone()]);
+        self.values.extend_from_slice(&c.values[r.start * n..r.end * n]);
+    }
+}
+
+/// A curves file read script by script (rows of one script are consecutive, as every
+/// stage writes them; a script whose rows are split comes out once per run of rows), a
+/// few thousand rows in memory at a time. The content hash is checked after the last
+/// script: use nothing derived from the scripts if the iteration ends in an error.
+pub struct Scripts {
+    stream: TableStream,
+    /// Frame rate.
+    pub fps: f64,
+    /// Control names.
+    pub controls: Vec<String>,
+    chunk: Curves,
+    cursor: usize,
+    partial: Option<Script>,
+    failed: bool,
+}
+
+impl Scripts {
+    /// Opens `path` (a `curves` artifact).
+    pub fn open(path: &Path) -> Result<Self> {
+        let mut stream = TableStream::open(path, CURVES, ROW_GROUP_ROWS)?;
+        let first = stream.next_chunk()?;
+        let chunk = match &first {
+            Some(t) => from_table(t)?,
+            None => from_table(&Table::read(path, CURVES)?)?,
+        };
+        Ok(Self {
+            stream,
+            fps: chunk.fps,
+            controls: chunk.controls.clone(),
+            chunk,
+            cursor: 0,
+            partial: None,
+            failed: false,
+        })
+    }
+
+    fn next_script(&mut self) -> Result<Option<Script>> {
+        loop {
+            if self.cursor == self.chunk.script.len() {
+                match self.stream.next_chunk()? {
+                    Some(t) => {
+                        self.chunk = from_table(&t)?;
+                        self.cursor = 0;
+                        continue;
+                    }
+                    None => return Ok(self.partial.take()),
+                }
+            }
+            let name = &self.chunk.script[self.cursor];
+            if self.partial.as_ref().is_some_and(|p| &p.name != name) {
+                return Ok(self.partial.take());
+            }
+            let end = (self.cursor..self.chunk.script.len()).find(|&r| &self.chunk.script[r] != name);
+            let end = end.unwrap_or(self.chunk.script.len());
+            let p = self.partial.get_or_insert_with(|| Script { name: name.clone(), ..Script::default() });
+            p.extend(&self.chunk, self.cursor..end);
+            self.cursor = end;
+            if end < self.chunk.script.len() {
+                return Ok(self.partial.take());
+            }
+        }
+    }
+}
+
+impl Iterator for Scripts {
+    type Item = Result<Script>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.failed {
+            return None;
+        }
+        let next = self.next_script().transpose();
+        self.failed = matches!(next, Some(Err(_)));
+        next
+    }
 }
 
 #[cfg(test)]
@@ -163,5 +366,55 @@ mod tests {
         let err = write(&path, &c, &Provenance::new("t", "0", serde_json::json!({}))).unwrap_err();
         assert!(err.to_string().contains("row 1 has a 0-d latent point where row 0 has 2"), "{err}");
         assert!(!path.exists());
+    }
+
+    /// Scripts streamed through a [`Writer`] across several row groups (one script
+    /// straddling a boundary) read back whole and script by script as pushed; the file's
+    /// content hash is the one a whole write gives, so both readers check it.
+    #[test]
+    fn streamed_scripts_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let controls = vec!["jaw".to_string(), "brow".to_string()];
+        let lens = [3, ROW_GROUP_ROWS - 2, 7, 1, ROW_GROUP_ROWS + 5];
+        let pv = Provenance::new("t", "0", serde_json::json!({}));
+        let path = dir.path().join("c.parquet");
+        let mut w = Writer::create(&path, 24.0, &controls, &pv);
+        let mut whole = Curves { fps: 24.0, controls: controls.clone(), ..Default::default() };
+        for (s, &len) in lens.iter().enumerate() {
+            let rows: Vec<[f64; 2]> = (0..len).map(|f| [s as f64, f as f64 * 0.5]).collect();
+            let x = [s as f64 / 10.0];
+            let frames = || rows.iter().map(|c| Frame { model: "m", controls: c, x: &x, command: s as i64 });
+            w.push_script(&format!("r{s}"), frames()).unwrap();
+            whole.push_script(&format!("r{s}"), frames());
+        }
+        w.finish().unwrap();
+        assert_eq!(read(&path).unwrap(), whole);
+        let again = dir.path().join("whole.parquet");
+        write(&again, &whole, &pv).unwrap();
+        let hash = |p: &Path| crate::table::metadata_of(p).unwrap()[crate::provenance::KEY_CONTENT].clone();
+        assert_eq!(hash(&path), hash(&again));
+        let scripts: Vec<Script> = Scripts::open(&path).unwrap().collect::<Result<_>>().unwrap();
+        assert_eq!(scripts.iter().map(|s| s.name.as_str()).collect::<Vec<_>>(), ["r0", "r1", "r2", "r3", "r4"]);
+        assert_eq!(scripts.iter().map(|s| s.frame.len()).collect::<Vec<_>>(), lens);
+        let s4 = &scripts[4];
+        assert_eq!((s4.values[2 * 9], s4.values[2 * 9 + 1], s4.x[9][0], s4.command[9]), (4.0, 4.5, 0.4, 4));
+        assert_eq!(s4.frame.last(), Some(&(ROW_GROUP_ROWS as i64 + 4)));
+    }
+
+    /// A writer dropped before `finish` (a stage failing half-way) leaves nothing at its
+    /// path and no temporary file; an old file there is untouched.
+    #[test]
+    fn an_unfinished_writer_leaves_the_old_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let pv = Provenance::new("t", "0", serde_json::json!({}));
+        let path = dir.path().join("c.parquet");
+        let old = Curves { fps: 24.0, controls: vec!["jaw".into()], ..Default::default() };
+        write(&path, &old, &pv).unwrap();
+        let before = std::fs::read(&path).unwrap();
+        let mut w = Writer::create(&path, 30.0, &["jaw".to_string()], &pv);
+        w.push_script("s", (0..ROW_GROUP_ROWS + 1).map(|_| Frame::plain("a", &[1.0]))).unwrap();
+        drop(w);
+        assert_eq!(std::fs::read(&path).unwrap(), before);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temporary file left");
     }
 }

@@ -114,19 +114,34 @@ pub fn measure(
     answer: &Answer,
     played: &Played,
 ) -> StageResult<Option<Measured>> {
-    let Some(latency) = answer.latency else { return Ok(None) };
+    if answer.latency.is_none() {
+        return Ok(None);
+    }
     let m = reprise_stagekit::rig::meshes(rig, &played.controls)?;
+    Ok(measure_meshed(training, settings, request, answer, played, &m))
+}
+
+/// [`measure`] with the answer's meshes already evaluated (`m`: one per frame, flattened).
+pub fn measure_meshed(
+    training: &Training,
+    settings: Settings,
+    request: &Request,
+    answer: &Answer,
+    played: &Played,
+    m: &[f64],
+) -> Option<Measured> {
+    let latency = answer.latency?;
     let frames = played.controls.len();
     let asked = (answer.asked.max(0) as usize).min(frames.saturating_sub(1));
     let switch = (asked as i64 + latency).clamp(0, frames as i64) as usize;
     let phases = Phase::ranges(frames, asked, latency.max(0) as usize, settings.k);
     let to = training.label_index(&request.to);
-    let mut near = nearest::Cache::new(training, &played.controls, &m);
+    let mut near = nearest::Cache::new(training, &played.controls, m);
     let arrived = to.and_then(|b| arrival::find(&mut near, asked, b, settings.arrival_frames));
-    let motion = motion::measure(&m, training, asked, switch, settings.discontinuity_window);
+    let motion = motion::measure(m, training, asked, switch, settings.discontinuity_window);
     let routed =
         played.model.get(asked + 1..switch).unwrap_or_default().iter().any(|l| *l != request.from && *l != request.to);
-    Ok(Some(Measured {
+    Some(Measured {
         request: request.request,
         from: request.from.clone(),
         to: request.to.clone(),
@@ -136,9 +151,9 @@ pub fn measure(
         jump: motion.jump,
         discontinuity: motion.discontinuity,
         speed: motion.speed,
-        liveliness: liveliness::measure(&m, training, to, &phases),
+        liveliness: liveliness::measure(m, training, to, &phases),
         plausibility: Plausibility::measure(&mut near, &phases, settings.stride),
-    }))
+    })
 }
 
 #[cfg(test)]
