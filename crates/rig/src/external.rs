@@ -1,6 +1,6 @@
 //! A user's rig engine as a child process speaking Arrow IPC streams.
 //!
-//! Protocol (documented for users in the README):
+//! Protocol (documented for users in docs/inputs.md, "Your own rig engine"):
 //! - reprise starts the command once and writes an Arrow IPC *stream* to its stdin: a
 //!   schema of one non-null Float64 column per rig control (named as the control, in
 //!   the controls table's order), then one record batch per request, one row per pose.

@@ -96,7 +96,7 @@ pub struct RunArgs {
     #[arg(long, value_name = "N")]
     pub jobs: Option<usize>,
     /// Where stage processes run: `local` child processes, or `slurm` job arrays (one
-    /// task per stale label of a partitioned stage; README "Running on a Slurm cluster").
+    /// task per stale label of a partitioned stage; docs/cluster.md).
     #[arg(long, value_enum, default_value_t = ExecutorKind::Local)]
     pub executor: ExecutorKind,
     /// Slurm's `--partition` (its queue; not a label partition).

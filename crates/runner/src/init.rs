@@ -338,7 +338,7 @@ fn resolve_source(args: &InitArgs, cwd: &Path, dir: &Path) -> Result<Source> {
         if args.external_rig.is_empty() {
             return Err(Error::Init(format!(
                 "--curves `{}`: a curve table carries no rig, and the stages after label evaluate one (scale, \
-                 bridges, evaluate); give its evaluator with --external-rig PROGRAM[,ARG…] (README, \"Your own \
+                 bridges, evaluate); give its evaluator with --external-rig PROGRAM[,ARG…] (docs/inputs.md, \"Your own \
                  rig engine\")",
                 table.display()
             )));
@@ -417,7 +417,7 @@ pub fn pipeline_text(name: &str, source: &Source, fps: f64, labels: &str) -> Str
     };
     let _ = writeln!(t, "# reprise pipeline for {what}, written by `reprise init`: ingest to the comparison report.");
     let _ = writeln!(t, "# Run it with `reprise run --pipeline <this file>`. Paths are relative to this file;");
-    let _ = writeln!(t, "# inputs and outputs are wired by artifact (README, \"Wiring\"), so only your own files");
+    let _ = writeln!(t, "# inputs and outputs are wired by artifact (docs/pipeline.md, \"Wiring\"), so only your own files");
     let _ = writeln!(t, "# are named. Edit the labels file to group clips by what they mean, then run again:");
     let _ = writeln!(t, "# only what changed reruns.\n");
     let _ = writeln!(t, "[pipeline]\nname = {}\n", quoted(name));
@@ -447,7 +447,7 @@ min_components = 3
 q = 3
 optimizer = "lbfgs"
 connectivity_path = "auto"     # exact up to 300 frames a label, the coarse graph above
-signal_prior_sd = 0.25         # fitted to convergence (README, "The GPLVM fit")
+signal_prior_sd = 0.25         # fitted to convergence (docs/method.md, "The GPLVM fit")
 noise_floor = 1e-2
 max_iters = 10000              # a safety net: a fit that reaches it is reported NOT converged
 dynamics_lengthscale = 0.2     # seconds
@@ -564,7 +564,7 @@ fn labels_text(clips: &[ClipInfo], fates: &[Fate], min_frames: i64) -> String {
     let mut t = String::from(
         "# Labels written by `reprise init`. Edit them: the paper groups frames by what the motion\n\
          # communicates, so that each label's model is homogeneous (`pattern` is a glob over clip\n\
-         # names; several clips may share a label). Format: README, \"Labels file\".\n",
+         # names; several clips may share a label). Format: docs/inputs.md, \"Labels file\".\n",
     );
     let entry = |t: &mut String, clip: &ClipInfo, label: &str| {
         if crate::paths::is_glob(&clip.name) {
@@ -628,7 +628,7 @@ pub fn script_text(segments: &[Segment]) -> Result<String> {
         .unwrap_or(first);
     let other = segments.iter().find(|s| s.label != first.label);
     let mut t = String::from(
-        "# A demo script written by `reprise init` (format: README, \"curves and the script format\").\n\
+        "# A demo script written by `reprise init` (format: docs/stages.md, \"curves and the script format\").\n\
          # Edit freely: `synthesize` plays every [[script]] of this file.\n\n",
     );
     let _ = writeln!(

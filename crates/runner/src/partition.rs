@@ -1,6 +1,6 @@
 //! Label partitions of an artifact: the blake3 of each label's rows, so the runner can say
 //! *which* labels of a changed input changed (the first step of partitioned stages; the
-//! README's "Partitioned stages" plan).
+//! docs/pipeline.md, "Partitioned stages").
 //!
 //! A Parquet artifact with a Utf8 column `label` has one partition per label. A partition's
 //! digest hashes its shape (the name and type of every column but `label` that has a value

@@ -163,7 +163,7 @@ pub struct Args {
     pub noise_floor: f64,
     /// Signal prior: standard deviation of log σ_f² under a Gaussian prior centred on the
     /// log of the mean per-dimension variance of Y (0: off). With ℓ fixed it removes the
-    /// ridge X → 0, σ_f² → ∞ along which no fit converged (README, "The GPLVM fit").
+    /// ridge X → 0, σ_f² → ∞ along which no fit converged (docs/method.md, "The GPLVM fit").
     #[arg(long, default_value_t = 0.25)]
     pub signal_prior_sd: f64,
     /// Jitter always added to the diagonal of K (GPy: 1e-8).

@@ -99,7 +99,7 @@ pub struct Args {
     #[arg(long)]
     pub clip: Option<String>,
     /// A rig for a curve table: an external evaluator command (program and arguments,
-    /// comma-separated) speaking reprise's Arrow IPC protocol (see the README).
+    /// comma-separated) speaking reprise's Arrow IPC protocol (docs/inputs.md).
     #[arg(long, value_delimiter = ',', value_name = "CMD")]
     pub external_rig: Vec<String>,
     /// Output: the frame table.

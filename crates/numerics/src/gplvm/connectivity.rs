@@ -55,7 +55,7 @@
 //! the exact path's $O(N^2q)$ pass. The eigenproblem has $m \approx N/k$ nodes for runs of
 //! $k$, so the cost is $\approx k^{-3}$ of the exact path's plus $O(N^2)$. It is an
 //! approximation of the exact prior (its error and its effect on the fit are measured in
-//! `tests/gplvm_timing.rs` and the README); with runs of one frame it *is* the exact prior.
+//! `tests/gplvm_timing.rs` and docs/method.md); with runs of one frame it *is* the exact prior.
 
 use faer::linalg::evd::{self_adjoint_evd, self_adjoint_evd_scratch, ComputeEigenvectors};
 use faer::linalg::matmul::matmul;

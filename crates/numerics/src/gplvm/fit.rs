@@ -201,7 +201,7 @@ pub struct FitConfig {
     /// $\varepsilon\,\bar v$, $\bar v$ the mean per-dimension variance of the centred $Y$
     /// (it becomes [`LikelihoodConfig::white_min`], unless that is larger). 0 turns it off.
     /// Noise-free curves otherwise drive $\sigma_w^2/\sigma_f^2$ to its floor and $\sigma_f^2$
-    /// up without end, and no fit converges (README, "The GPLVM fit").
+    /// up without end, and no fit converges (docs/method.md, "The GPLVM fit").
     pub noise_floor: f64,
     /// Standard deviation $s$ of $\log\sigma_f^2$ under the [`SignalPrior`] centred on
     /// $\bar v$ (median $\bar v$); 0 turns the prior off.
@@ -699,7 +699,7 @@ mod tests {
                 assert!(f.minimised.connectivity != f.last.connectivity);
                 let rel = (f.minimised.connectivity - f.last.connectivity).abs() / f.last.connectivity.abs();
                 // 20 nodes for 60 frames: coarser than any label the stage gives this path
-                // (the README measures 0.1–1.2 % from N = 200 up).
+                // (docs/method.md: 0.1–1.2 % from N = 200 up).
                 assert!(rel < 0.1, "coarse prior {} vs exact {}", f.minimised.connectivity, f.last.connectivity);
             }
             last = Some((config, f));

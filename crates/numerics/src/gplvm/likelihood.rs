@@ -41,7 +41,7 @@ pub struct LikelihoodConfig {
     /// Absolute floor $a$ on the white variance, in the units of $Y^2$ (default 0: off).
     /// A floor tied to the *data* rather than to $\sigma_f^2$: [`super::fit`] sets it to
     /// [`super::FitConfig::noise_floor`] × the mean per-dimension variance of $Y$, which
-    /// makes the MAP well posed on noise-free curves (README, "The GPLVM fit").
+    /// makes the MAP well posed on noise-free curves (docs/method.md, "The GPLVM fit").
     pub white_min: f64,
     /// Parallelism of the dense factorisations and products.
     pub par: Par,
