@@ -21,7 +21,7 @@
 #![warn(missing_docs)]
 
 pub mod contain;
-mod content;
+pub mod content;
 pub mod error;
 pub mod partition;
 pub mod provenance;

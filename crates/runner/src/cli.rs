@@ -60,7 +60,7 @@ pub struct InitArgs {
     /// Your labels file (TOML or CSV); without it init writes `labels.toml`, one label per clip.
     #[arg(long, value_name = "FILE")]
     pub labels: Option<PathBuf>,
-    /// The pipeline's name (artifacts/<name>, reports/<name>); default: from the source's file name.
+    /// The pipeline's name (`artifacts/<name>`, `reports/<name>`); default: from the source's file name.
     #[arg(long)]
     pub name: Option<String>,
     /// The pipeline's frame rate: every clip is resampled to it.

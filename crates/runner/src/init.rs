@@ -417,7 +417,10 @@ pub fn pipeline_text(name: &str, source: &Source, fps: f64, labels: &str) -> Str
     };
     let _ = writeln!(t, "# reprise pipeline for {what}, written by `reprise init`: ingest to the comparison report.");
     let _ = writeln!(t, "# Run it with `reprise run --pipeline <this file>`. Paths are relative to this file;");
-    let _ = writeln!(t, "# inputs and outputs are wired by artifact (docs/pipeline.md, \"Wiring\"), so only your own files");
+    let _ = writeln!(
+        t,
+        "# inputs and outputs are wired by artifact (docs/pipeline.md, \"Wiring\"), so only your own files"
+    );
     let _ = writeln!(t, "# are named. Edit the labels file to group clips by what they mean, then run again:");
     let _ = writeln!(t, "# only what changed reruns.\n");
     let _ = writeln!(t, "[pipeline]\nname = {}\n", quoted(name));

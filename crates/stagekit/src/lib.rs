@@ -19,7 +19,7 @@ use indicatif::ProgressStyle;
 use reprise_artifact::Provenance;
 use serde::Serialize;
 
-/// What precedes a stage binary's code identity in its bytes (see [`embed_code_id!`]).
+/// What precedes a stage binary's code identity in its bytes (see [`code_id!`]).
 pub const CODE_ID_MARKER: &str = "reprise-code-id=";
 
 /// The code identity a build script computed (`reprise_codeid::emit`) as the string
@@ -41,7 +41,7 @@ pub const STATS_ENV: &str = "REPRISE_STATS_FILE";
 /// after printing `<binary>: error: <message>` once to stderr.
 ///
 /// Around the body: a panic becomes one "internal error" line and exit code
-/// [`exit::FAILURE`] ([`panic`]); the stage dies with its runner ([`lifetime`]); and the
+/// [`exit::FAILURE`] ([`mod@panic`]); the stage dies with its runner ([`lifetime`]); and the
 /// stage's artifacts are replaced together — each is written to a temporary file as the
 /// stage goes, and all are renamed into place only once the body succeeded
 /// ([`reprise_artifact::table::defer_commits`]), so a stage that fails or is killed
@@ -141,7 +141,7 @@ pub fn progress(len: u64, message: &str) -> ProgressBar {
 /// is not a terminal.
 pub use indicatif::MultiProgress;
 
-/// A [`MultiProgress`] drawing where [`progress`] does.
+/// A [`MultiProgress`] drawing where [`progress()`] does.
 pub fn multi_progress() -> MultiProgress {
     MultiProgress::with_draw_target(progress::draw_target())
 }
@@ -156,7 +156,7 @@ pub fn counter_in(multi: &MultiProgress, message: &str, unit: &str) -> ProgressB
     multi.add(bar)
 }
 
-/// A bar of [`progress`]'s style added to `multi`.
+/// A bar of [`progress()`]'s style added to `multi`.
 pub fn progress_in(multi: &MultiProgress, len: u64, message: &str) -> ProgressBar {
     multi.add(progress(len, message))
 }

@@ -195,7 +195,7 @@ impl Iterator for PlayedStream {
 /// comparison with NaN is false): refused, naming the row and the control.
 fn played(path: &Path, s: curves::Script, first_row: usize) -> StageResult<Played> {
     let frames = s.frame.len();
-    let n = if frames == 0 { 0 } else { s.values.len() / frames };
+    let n = s.values.len().checked_div(frames).unwrap_or(0);
     if let Some(i) = s.values.iter().position(|v| !v.is_finite()) {
         return Err(StageError::Input(format!(
             "{}: row {} (script `{}`, frame {}), control {} is {}; rerun the stage that wrote it",

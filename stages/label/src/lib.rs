@@ -1,5 +1,5 @@
 //! The label stage: applies a labels file (rules, ranges, exclusions; see
-//! [`labels_file`]) to the frame table, drops masked controls, and writes the segments
+//! `labels_file`) to the frame table, drops masked controls, and writes the segments
 //! and the labeled frames.
 
 mod assign;

@@ -46,7 +46,7 @@ pub struct Args {
     #[command(flatten)]
     #[serde(skip)]
     pub models: ModelInputs,
-    /// Input: a scripts file (TOML: one script, or several as [[script]] tables).
+    /// Input: a scripts file (TOML: one script, or several as `[[script]]` tables).
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
     pub scripts: PathBuf,

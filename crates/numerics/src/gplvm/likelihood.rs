@@ -39,7 +39,7 @@ pub struct LikelihoodConfig {
     /// $\max(\sigma_w^2, r\sigma_f^2, a)$ (method.md §1.6). Default $r = 10^{-6}$; 0 disables.
     pub white_floor: f64,
     /// Absolute floor $a$ on the white variance, in the units of $Y^2$ (default 0: off).
-    /// A floor tied to the *data* rather than to $\sigma_f^2$: [`super::fit`] sets it to
+    /// A floor tied to the *data* rather than to $\sigma_f^2$: [`super::fit()`] sets it to
     /// [`super::FitConfig::noise_floor`] × the mean per-dimension variance of $Y$, which
     /// makes the MAP well posed on noise-free curves (docs/method.md, "The GPLVM fit").
     pub white_min: f64,

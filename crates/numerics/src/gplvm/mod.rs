@@ -25,7 +25,7 @@
 //!
 //! Module map: [`params`] (hyperparameters, jitter, layout), [`kernel`] (the RBF kernel),
 //! [`likelihood`], [`dynamics`], [`connectivity`], [`objective`] (their sum), [`predict`]
-//! (posterior mean, its Jacobian and variance), [`fit`] (initialisation and the MAP fit),
+//! (posterior mean, its Jacobian and variance), [`mod@fit`] (initialisation and the MAP fit),
 //! [`latent`] (latent density, best latent point for an output), [`model`] (latent
 //! point → PCA coordinates → rig controls).
 

@@ -36,7 +36,7 @@ pub struct EvalInfo {
 /// $$E_S = \frac{(\log\sigma_f^2 - \log m)^2}{2s^2},\qquad
 /// \frac{\partial E_S}{\partial\log\sigma_f^2} = \frac{\log\sigma_f^2 - \log m}{s^2},$$
 /// with median $m$ (units of $Y^2$) and log standard deviation $s$ (natural log).
-/// [`super::fit`] centres it on the data: $m = \bar v$, the mean per-dimension variance of $Y$.
+/// [`super::fit()`] centres it on the data: $m = \bar v$, the mean per-dimension variance of $Y$.
 /// With $\ell$ fixed it removes the flat-limit ridge of the likelihood ($X \to 0$,
 /// $\sigma_f^2 \to \infty$ at a fixed $\sigma_w^2/\sigma_f^2$) along which no fit converges.
 #[derive(Debug, Clone, Copy, PartialEq)]
