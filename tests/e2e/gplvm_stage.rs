@@ -114,8 +114,8 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     assert_eq!(reqs.len(), 56 * 20);
     // Neither system is guaranteed an answer; every unanswered request says why.
     let ours = reprise_artifact::transitions::read_answers(&a("answers_reprise")).unwrap();
-    let theirs = reprise_artifact::transitions::read_answers(&a("answers_baseline")).unwrap();
-    assert_eq!((ours.system.as_str(), theirs.system.as_str()), ("reprise", "baseline"));
+    let theirs = reprise_artifact::transitions::read_answers(&a("answers_motion_graphs")).unwrap();
+    assert_eq!((ours.system.as_str(), theirs.system.as_str()), ("reprise", "motion-graphs"));
     // Motion matching and the crossfade answer the same requests.
     for (file, system) in [("answers_motion_matching", "motion-matching"), ("answers_crossfade", "crossfade")] {
         let a = reprise_artifact::transitions::read_answers(&a(file)).unwrap();
@@ -132,7 +132,7 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
         reprise_artifact::Table::read(&p.path("reports/dragon-face/metrics.parquet"), reprise_evaluate::METRICS)
             .unwrap();
     let systems = metrics.strings("system").unwrap();
-    assert!(systems.iter().any(|s| s == "reprise") && systems.iter().any(|s| s == "baseline"));
+    assert!(systems.iter().any(|s| s == "reprise") && systems.iter().any(|s| s == "motion-graphs"));
     let names = metrics.strings("metric").unwrap();
     // Every system is measured on every headline metric, perceived latency included.
     for m in [
@@ -146,16 +146,19 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
         "discontinuity_accel",
         "liveliness_ks",
     ] {
-        for s in ["reprise", "baseline", "motion-matching", "crossfade"] {
+        for s in ["reprise", "motion-graphs", "motion-matching", "crossfade"] {
             if m == "variety" && ["motion-matching", "crossfade"].contains(&s) {
                 continue; // deterministic: shown as 0 by construction, not measured
             }
             assert!((0..names.len()).any(|r| names[r] == m && systems[r] == s), "no {s} {m}");
         }
     }
-    for pair in
-        ["reprise vs baseline", "reprise vs motion-matching", "reprise vs crossfade", "motion-matching vs crossfade"]
-    {
+    for pair in [
+        "reprise vs motion-graphs",
+        "reprise vs motion-matching",
+        "reprise vs crossfade",
+        "motion-matching vs crossfade",
+    ] {
         assert!(systems.iter().any(|s| s == pair), "no paired rows for {pair}");
     }
     assert!(systems.iter().any(|s| s == "requests") && names.iter().any(|m| m == "start_on_bridge"));
@@ -231,9 +234,9 @@ fn transitions_refuses_a_graph_that_does_not_belong(p: &Project) {
         .collect();
         v.extend(["--mg-edges".into(), edges.into(), "--window".into(), window.into()]);
         for out in ["requests", "reprise-answers", "reprise-curves", "reprise-reseeded"].into_iter().chain([
-            "baseline-answers",
-            "baseline-curves",
-            "baseline-reseeded",
+            "motion-graphs-answers",
+            "motion-graphs-curves",
+            "motion-graphs-reseeded",
         ]) {
             v.extend([format!("--{out}"), format!("out/t/{out}.parquet")]);
         }

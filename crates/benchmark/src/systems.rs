@@ -24,7 +24,7 @@ pub const SYSTEMS: [SystemDef; 4] = [
         about: "one GPLVM per label, bridges between them, a particle driven by IDLE / TRANSITION commands",
     },
     SystemDef {
-        id: "baseline",
+        id: "motion-graphs",
         shown: "Motion Graphs",
         seeded: true,
         about: "Kovar, Gleicher & Pighin's graph of training frames with blended transitions, a near-shortest path",
@@ -65,7 +65,7 @@ mod tests {
                 assert!(a.id != b.id && a.shown != b.shown, "{a:?} {b:?}");
             }
         }
-        assert_eq!(shown("baseline"), "Motion Graphs");
+        assert_eq!(shown("motion-graphs"), "Motion Graphs");
         assert_eq!(shown("someone-else"), "someone-else");
     }
 }

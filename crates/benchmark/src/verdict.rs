@@ -7,7 +7,7 @@ use crate::metrics::{self, Direction, MetricDef};
 /// One row of the metrics table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Metric {
-    /// A system id (`reprise`, `baseline`, …), a pair `<a> vs <b>` for paired
+    /// A system id (`reprise`, `motion-graphs`, …), a pair `<a> vs <b>` for paired
     /// differences, or a model variant (`gplvm`, `pca`, `scaled`, `unscaled`).
     pub system: String,
     /// Metric id (see [`metrics::CATALOGUE`]).
@@ -212,7 +212,7 @@ mod tests {
         metrics::find(id).unwrap()
     }
 
-    const ALL: [&str; 4] = ["reprise", "baseline", "motion-matching", "crossfade"];
+    const ALL: [&str; 4] = ["reprise", "motion-graphs", "motion-matching", "crossfade"];
 
     /// A ratio ranked toward 1 (the per-phase liveliness ratios' direction).
     static TOWARD_ONE: MetricDef = MetricDef {
@@ -231,19 +231,19 @@ mod tests {
     fn every_system_is_ranked_on_what_it_measures() {
         let m = vec![
             row("reprise", "perceived_latency_s", 0.5, 0.45, 0.55),
-            row("baseline", "perceived_latency_s", 2.0, 1.9, 2.1),
+            row("motion-graphs", "perceived_latency_s", 2.0, 1.9, 2.1),
             row("motion-matching", "perceived_latency_s", 0.06, 0.055, 0.065),
             row("crossfade", "perceived_latency_s", 0.04, 0.035, 0.045),
         ];
         let r = Ranking::new(&m, &ALL, def("perceived_latency_s"));
-        assert_eq!(r.order, ["crossfade", "motion-matching", "reprise", "baseline"]);
+        assert_eq!(r.order, ["crossfade", "motion-matching", "reprise", "motion-graphs"]);
         assert_eq!(r.verdict, Verdict::Best { system: "crossfade".into(), clear: true });
     }
 
     /// Higher-is-better shares, overlapping CIs, exact ties, and fewer than two measured.
     #[test]
     fn overlap_ties_and_missing_values() {
-        let m = vec![row("reprise", "coverage", 0.9, 0.8, 0.95), row("baseline", "coverage", 0.85, 0.75, 0.9)];
+        let m = vec![row("reprise", "coverage", 0.9, 0.8, 0.95), row("motion-graphs", "coverage", 0.85, 0.75, 0.9)];
         let r = Ranking::new(&m, &ALL, def("coverage"));
         assert_eq!(r.verdict, Verdict::Best { system: "reprise".into(), clear: false });
         let m = vec![row("reprise", "answered", 1.0, 1.0, 1.0), row("crossfade", "answered", 1.0, 1.0, 1.0)];
@@ -256,10 +256,10 @@ mod tests {
         // One observation's zero-width CI does not make a clear win.
         let mut lone = row("reprise", "discontinuity_accel", 0.2, 0.2, 0.2);
         lone.n = 1;
-        let m = vec![lone, row("baseline", "discontinuity_accel", 0.5, 0.45, 0.55)];
+        let m = vec![lone, row("motion-graphs", "discontinuity_accel", 0.5, 0.45, 0.55)];
         let r = Ranking::new(&m, &ALL, def("discontinuity_accel"));
         assert_eq!(r.verdict, Verdict::Best { system: "reprise".into(), clear: false });
-        let m = vec![row("reprise", "variety", 1.0, 0.9, 1.1), row("baseline", "variety", 2.0, 1.9, 2.1)];
+        let m = vec![row("reprise", "variety", 1.0, 0.9, 1.1), row("motion-graphs", "variety", 2.0, 1.9, 2.1)];
         assert!(matches!(Ranking::new(&m, &ALL, def("variety")).verdict, Verdict::NotRanked(_)));
     }
 
@@ -268,12 +268,12 @@ mod tests {
     fn liveliness_ratio_ranks_toward_one() {
         let m = vec![
             row("reprise", "liveliness_ratio", 0.2, 0.15, 0.25),
-            row("baseline", "liveliness_ratio", 1.1, 1.0, 1.2),
+            row("motion-graphs", "liveliness_ratio", 1.1, 1.0, 1.2),
             row("crossfade", "liveliness_ratio", 3.0, 2.5, 3.5),
         ];
         let r = Ranking::new(&m, &ALL, &TOWARD_ONE);
-        assert_eq!(r.order, ["baseline", "crossfade", "reprise"]);
-        assert_eq!(r.verdict, Verdict::Best { system: "baseline".into(), clear: true });
+        assert_eq!(r.order, ["motion-graphs", "crossfade", "reprise"]);
+        assert_eq!(r.verdict, Verdict::Best { system: "motion-graphs".into(), clear: true });
     }
 
     /// A clear overall win the paired table contradicts is reported; one it agrees with is not.
@@ -281,18 +281,18 @@ mod tests {
     fn disagreements_with_the_paired_table_are_found() {
         let mut m = vec![
             row("reprise", "perceived_latency_s", 0.3, 0.25, 0.35),
-            row("baseline", "perceived_latency_s", 1.0, 0.9, 1.1),
+            row("motion-graphs", "perceived_latency_s", 1.0, 0.9, 1.1),
             // On the requests both answered, reprise is 0.2 s slower.
-            row("reprise vs baseline", "paired_perceived_latency_s", 0.2, 0.1, 0.3),
+            row("reprise vs motion-graphs", "paired_perceived_latency_s", 0.2, 0.1, 0.3),
         ];
-        let c = Conclusions::new(&m, &["reprise", "baseline"]);
+        let c = Conclusions::new(&m, &["reprise", "motion-graphs"]);
         assert!(c.ranking("perceived_latency_s").unwrap().won_by("reprise"));
         let d = c.disagreements(&m);
-        assert_eq!((d.len(), d[0].other.as_str()), (1, "baseline"));
-        m[2] = row("reprise vs baseline", "paired_perceived_latency_s", -0.6, -0.7, -0.5);
-        assert!(Conclusions::new(&m, &["reprise", "baseline"]).disagreements(&m).is_empty());
+        assert_eq!((d.len(), d[0].other.as_str()), (1, "motion-graphs"));
+        m[2] = row("reprise vs motion-graphs", "paired_perceived_latency_s", -0.6, -0.7, -0.5);
+        assert!(Conclusions::new(&m, &["reprise", "motion-graphs"]).disagreements(&m).is_empty());
         // The pair written the other way round is read with its sign flipped.
-        m[2] = row("baseline vs reprise", "paired_perceived_latency_s", -0.2, -0.3, -0.1);
-        assert_eq!(Conclusions::new(&m, &["reprise", "baseline"]).disagreements(&m).len(), 1);
+        m[2] = row("motion-graphs vs reprise", "paired_perceived_latency_s", -0.2, -0.3, -0.1);
+        assert_eq!(Conclusions::new(&m, &["reprise", "motion-graphs"]).disagreements(&m).len(), 1);
     }
 }

@@ -4,7 +4,7 @@
 //! wires every input to the one stage of the pipeline that writes the same artifact.
 //!
 //! An artifact is named by its file name (`pca_coords.parquet`): the kind and the role
-//! together (`answers_reprise.parquet` and `answers_baseline.parquet` are one kind in two
+//! together (`answers_reprise.parquet` and `answers_motion_graphs.parquet` are one kind in two
 //! roles). A role is the stage's flag (`--coords`), as in `inputs.coords = "…"`.
 
 /// A stage's declaration.

@@ -212,12 +212,13 @@ fn synthetic(dir: &Path) -> PathBuf {
         encoded,
     };
     let labels = vec!["a".to_string(), "b".to_string()];
-    let systems = vec![("reprise".to_string(), "reprise".to_string()), ("baseline".into(), "Motion Graphs".into())];
+    let systems =
+        vec![("reprise".to_string(), "reprise".to_string()), ("motion-graphs".into(), "Motion Graphs".into())];
     let rows = vec![
         metric("reprise", "latency_s", "all", "all", &[0.3, 0.4, 0.5], "s", 1),
-        metric("baseline", "latency_s", "all", "all", &[0.9, 1.0, 1.1], "s", 1),
+        metric("motion-graphs", "latency_s", "all", "all", &[0.9, 1.0, 1.1], "s", 1),
         exact("reprise", "coverage", "a", "b", 1.0, 3, "share"),
-        exact("baseline", "coverage", "a", "b", 0.5, 3, "share"),
+        exact("motion-graphs", "coverage", "a", "b", 0.5, 3, "share"),
     ];
     let tris = sheet_triangles();
     let cam = sheet(0.0);

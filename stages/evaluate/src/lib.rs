@@ -48,7 +48,7 @@ use systems::System;
 use training::Training;
 
 /// Kind of the metrics table.
-pub const METRICS: Kind = Kind { name: "metrics", version: 3 };
+pub const METRICS: Kind = Kind { name: "metrics", version: 4 };
 
 /// `reprise-evaluate`: metrics and the report.
 #[derive(Debug, Clone, Parser, Serialize)]
@@ -85,15 +85,15 @@ pub struct Args {
     /// Input: the Motion Graphs baseline's answers.
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
-    pub baseline_answers: PathBuf,
-    /// Input: the baseline's transition curves.
+    pub motion_graphs_answers: PathBuf,
+    /// Input: the Motion Graphs baseline's transition curves.
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
-    pub baseline_curves: PathBuf,
-    /// Input: the baseline's transition curves under other seeds.
+    pub motion_graphs_curves: PathBuf,
+    /// Input: the Motion Graphs baseline's transition curves.under other seeds.
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
-    pub baseline_reseeded: PathBuf,
+    pub motion_graphs_reseeded: PathBuf,
     /// Input (optional): motion matching's answers (with `--mm-curves`).
     #[arg(long, value_name = "FILE", requires = "mm_curves")]
     #[serde(skip)]
@@ -213,7 +213,12 @@ impl Args {
                 self.reprise_curves.as_path(),
                 Some(self.reprise_reseeded.as_path()),
             ),
-            ("baseline", &self.baseline_answers, &self.baseline_curves, Some(self.baseline_reseeded.as_path())),
+            (
+                "motion-graphs",
+                &self.motion_graphs_answers,
+                &self.motion_graphs_curves,
+                Some(self.motion_graphs_reseeded.as_path()),
+            ),
         ];
         if let (Some(a), Some(c)) = (&self.mm_answers, &self.mm_curves) {
             v.push(("motion-matching", a, c, None));
@@ -588,7 +593,7 @@ fn transition_points(
             let n = links.iter().filter(|l| &l.from == a && &l.to == b).count();
             out.push(exact("reprise", "transition_points", a, b, n as f64, 1, "count"));
             let m = mg.get(&(a.as_str(), b.as_str())).copied().unwrap_or(0);
-            out.push(exact("baseline", "transition_points", a, b, m as f64, 1, "count"));
+            out.push(exact("motion-graphs", "transition_points", a, b, m as f64, 1, "count"));
         }
     }
     Ok(out)
@@ -677,9 +682,9 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
             wiring::required("reprise_answers", "answers_reprise.parquet"),
             wiring::required("reprise_curves", "transitions_reprise.parquet"),
             wiring::required("reprise_reseeded", "transitions_reprise_reseeded.parquet"),
-            wiring::required("baseline_answers", "answers_baseline.parquet"),
-            wiring::required("baseline_curves", "transitions_baseline.parquet"),
-            wiring::required("baseline_reseeded", "transitions_baseline_reseeded.parquet"),
+            wiring::required("motion_graphs_answers", "answers_motion_graphs.parquet"),
+            wiring::required("motion_graphs_curves", "transitions_motion_graphs.parquet"),
+            wiring::required("motion_graphs_reseeded", "transitions_motion_graphs_reseeded.parquet"),
             wiring::optional("mm_answers", "answers_motion_matching.parquet"),
             wiring::optional("mm_curves", "transitions_motion_matching.parquet"),
             wiring::optional("crossfade_answers", "answers_crossfade.parquet"),

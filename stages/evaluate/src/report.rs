@@ -230,7 +230,7 @@ pub(crate) mod tests {
     fn latencies(reprise: f64, graph: f64) -> Vec<Metric> {
         let row =
             |sys: &str, v: f64| metric(sys, "perceived_latency_s", "all", "all", &[v - 0.01, v, v + 0.01], "s", 1);
-        vec![row("reprise", reprise), row("baseline", graph), row("motion-matching", 0.1), row("crossfade", 0.04)]
+        vec![row("reprise", reprise), row("motion-graphs", graph), row("motion-matching", 0.1), row("crossfade", 0.04)]
     }
 
     /// A latency a system has by its design is ranked like any other: the crossfade's
@@ -279,9 +279,9 @@ pub(crate) mod tests {
         let sys = systems();
         let m = vec![
             metric("reprise", "discontinuity_accel", "all", "all", &[0.4, 0.5, 0.6, 0.5], "ratio", 1),
-            metric("baseline", "discontinuity_accel", "all", "all", &[0.45, 0.55, 0.65, 0.55], "ratio", 1),
+            metric("motion-graphs", "discontinuity_accel", "all", "all", &[0.45, 0.55, 0.65, 0.55], "ratio", 1),
             metric("reprise", "success", "all", "all", &[1.0, 1.0], "share", 1),
-            metric("baseline", "success", "all", "all", &[1.0, 1.0], "share", 1),
+            metric("motion-graphs", "success", "all", "all", &[1.0, 1.0], "share", 1),
         ];
         with_ctx(&sys, &m, &["crossfade"], |ctx| {
             let md = markdown(&m, ctx);
@@ -298,8 +298,16 @@ pub(crate) mod tests {
     fn a_contradicting_paired_row_is_reported() {
         let sys = systems();
         let mut m = latencies(0.5, 2.0);
-        m.retain(|r| r.system == "reprise" || r.system == "baseline");
-        m.push(metric("reprise vs baseline", "paired_perceived_latency_s", "all", "all", &[0.1, 0.2, 0.3], "s", 1));
+        m.retain(|r| r.system == "reprise" || r.system == "motion-graphs");
+        m.push(metric(
+            "reprise vs motion-graphs",
+            "paired_perceived_latency_s",
+            "all",
+            "all",
+            &[0.1, 0.2, 0.3],
+            "s",
+            1,
+        ));
         with_ctx(&sys, &m, &[], |ctx| {
             let md = markdown(&m, ctx);
             assert!(md.contains("on the requests both answered Motion Graphs is ahead"), "{md}");

@@ -73,15 +73,15 @@ pub struct Args {
     /// Output: the baseline's answers.
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
-    pub baseline_answers: PathBuf,
+    pub motion_graphs_answers: PathBuf,
     /// Output: the baseline's curves.
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
-    pub baseline_curves: PathBuf,
+    pub motion_graphs_curves: PathBuf,
     /// Output: the baseline's curves under other seeds (another near-shortest path).
     #[arg(long, value_name = "FILE")]
     #[serde(skip)]
-    pub baseline_reseeded: PathBuf,
+    pub motion_graphs_reseeded: PathBuf,
     /// Requests per ordered pair of labels.
     #[arg(long, default_value_t = 20)]
     pub per_pair: usize,
@@ -154,7 +154,7 @@ type Reply = (Answer, Result<Played, String>, Result<Played, String>);
 pub type Answered = Vec<(Request, [Answer; 2])>;
 
 /// The systems this stage answers with, in the order of [`Answers::systems`].
-const SYSTEMS: [&str; 2] = ["reprise", "baseline"];
+const SYSTEMS: [&str; 2] = ["reprise", "motion-graphs"];
 
 /// The seed offset of the repeated runs.
 pub const RESEED: u64 = 1_000_003;
@@ -315,7 +315,7 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     let fps = labeled.frames.fps;
     let outputs = [
         (&args.reprise_answers, &args.reprise_curves, &args.reprise_reseeded),
-        (&args.baseline_answers, &args.baseline_curves, &args.baseline_reseeded),
+        (&args.motion_graphs_answers, &args.motion_graphs_curves, &args.motion_graphs_reseeded),
     ];
     // Requests are answered a chunk at a time and their frames written before the next
     // chunk: the stage holds a chunk's frames, not the benchmark's.
@@ -432,9 +432,9 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
             wiring::artifact("reprise_answers", "answers_reprise.parquet"),
             wiring::artifact("reprise_curves", "transitions_reprise.parquet"),
             wiring::artifact("reprise_reseeded", "transitions_reprise_reseeded.parquet"),
-            wiring::artifact("baseline_answers", "answers_baseline.parquet"),
-            wiring::artifact("baseline_curves", "transitions_baseline.parquet"),
-            wiring::artifact("baseline_reseeded", "transitions_baseline_reseeded.parquet"),
+            wiring::artifact("motion_graphs_answers", "answers_motion_graphs.parquet"),
+            wiring::artifact("motion_graphs_curves", "transitions_motion_graphs.parquet"),
+            wiring::artifact("motion_graphs_reseeded", "transitions_motion_graphs_reseeded.parquet"),
         ],
         derived: &[],
         partition: wiring::Partition::Whole,

@@ -30,7 +30,7 @@ use crate::table::{Columns, Kind, Table};
 /// Kind of the requests table.
 pub const TRANSITION_REQUESTS: Kind = Kind { name: "transition_requests", version: 3 };
 /// Kind of one system's answers.
-pub const TRANSITION_ANSWERS: Kind = Kind { name: "transition_answers", version: 1 };
+pub const TRANSITION_ANSWERS: Kind = Kind { name: "transition_answers", version: 2 };
 
 /// One system's answer to one request.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -180,9 +180,9 @@ mod tests {
         assert_eq!(read_requests(&path).unwrap(), vec![r]);
         let answers = vec![(3, Answer::reached(12, 30)), (4, Answer::failed("start frame pruned"))];
         let path = dir.path().join("a.parquet");
-        write_answers(&path, "baseline", &answers, &provenance()).unwrap();
+        write_answers(&path, "motion-graphs", &answers, &provenance()).unwrap();
         let back = read_answers(&path).unwrap();
-        assert_eq!(back.system, "baseline");
+        assert_eq!(back.system, "motion-graphs");
         assert_eq!(back.get(3), Some(&answers[0].1));
         assert_eq!(back.get(4), Some(&answers[1].1));
         assert_eq!(back.get(5), None);
