@@ -13,7 +13,7 @@
 //!
 //! | column | type | meaning |
 //! |---|---|---|
-//! | `system` | Utf8 | who answered (`reprise`, `baseline`, `motion-matching`, `crossfade`) |
+//! | `system` | Utf8 | who answered (`reprise`, `motion-graphs`, `motion-matching`, `crossfade`) |
 //! | `request` | Int64 | the request's id |
 //! | `answered` | Boolean | whether the system reached B |
 //! | `asked` | Int64 | frame of the answer's curves at which the request was made (a hold before it is context, not answer) |
