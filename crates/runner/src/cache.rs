@@ -43,7 +43,7 @@ pub enum Reason {
     /// An input's content differs from the recorded one.
     InputChanged { name: String, path: String },
     /// An input's content differs, and both runs know its label partitions: which changed.
-    InputLabelsChanged { name: String, path: String, delta: crate::partition::Delta },
+    InputLabelsChanged { name: String, path: String, delta: crate::label_digest::Delta },
     /// An input declared now that the recorded run did not have, or now at another path.
     InputAdded { name: String, path: String },
     /// A recorded input that is no longer declared.
@@ -253,12 +253,13 @@ fn own_reasons(
             (_, None) => {} // reported above, or explained upstream
             (Some(old), Some(now)) if old.path == path.rel => {
                 if &old.blake3 != now {
-                    let labels = (!old.labels.is_empty()).then(|| crate::partition::label_digests(&path.abs)).flatten();
+                    let labels =
+                        (!old.labels.is_empty()).then(|| crate::label_digest::label_digests(&path.abs)).flatten();
                     reasons.push(match labels {
                         Some(new) => Reason::InputLabelsChanged {
                             name: name.clone(),
                             path: path.rel.clone(),
-                            delta: crate::partition::Delta::between(&old.labels, &new),
+                            delta: crate::label_digest::Delta::between(&old.labels, &new),
                         },
                         None => Reason::InputChanged { name: name.clone(), path: path.rel.clone() },
                     });

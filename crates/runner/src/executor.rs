@@ -12,8 +12,8 @@
 use std::time::Instant;
 
 use crate::cache::ResolvedBin;
-use crate::error::Result;
-use crate::exec::Interrupt;
+use crate::child::{self, Interrupt, Outcome};
+use crate::error::{Error, Result};
 use crate::pipeline::{Pipeline, Stage};
 
 pub use crate::slurm::{Slurm, SlurmOptions};
@@ -84,7 +84,7 @@ impl Executor for Local {
                     }
                     let Task { stage, bin } = tasks[k];
                     let started = Instant::now();
-                    let result = crate::run::invoke_measured(pipeline, stage, bin, interrupt, plain).map(|peak| Done {
+                    let result = invoke_measured(pipeline, stage, bin, interrupt, plain).map(|peak| Done {
                         seconds: started.elapsed().as_secs_f64(),
                         peak_rss_mb: peak,
                         job: None,
@@ -106,5 +106,39 @@ impl Executor for Local {
             }
         });
         first_error.map_or(Ok(()), Err)
+    }
+}
+
+/// Runs `stage` once as a child process (its outputs' directories created first) and
+/// returns the peak memory (MB) it reported; a failure is an error naming the stage.
+/// `plain_progress` asks it for plain progress lines (several stages run at once).
+fn invoke_measured(
+    pipeline: &Pipeline,
+    stage: &Stage,
+    bin: &ResolvedBin,
+    interrupt: &child::Interrupt,
+    plain_progress: bool,
+) -> Result<Option<f64>> {
+    for (_, path) in &stage.outputs {
+        if let Some(parent) = path.abs.parent() {
+            std::fs::create_dir_all(parent).map_err(|source| Error::Io { path: parent.to_path_buf(), source })?;
+        }
+    }
+    let stats = pipeline.artifacts.abs.join(format!(".{}.stats.json", crate::paths::file_name(&stage.name)));
+    let _ = std::fs::create_dir_all(&pipeline.artifacts.abs);
+    let _ = std::fs::remove_file(&stats);
+    let call = child::Call { stats: Some(&stats), plain_progress, ..Default::default() };
+    let outcome = child::invoke(stage, &bin.path, &pipeline.dir, call, interrupt)?;
+    let peak_rss_mb = child::read_peak(&stats);
+    let _ = std::fs::remove_file(&stats);
+    match outcome {
+        Outcome::Success => Ok(peak_rss_mb),
+        Outcome::Failed(code) => Err(Error::StageFailed { stage: stage.name.clone(), code }),
+        Outcome::Killed(signal) => {
+            Err(Error::StageKilled { stage: stage.name.clone(), signal, name: child::signal_name(signal) })
+        }
+        Outcome::Interrupted(signal) => {
+            Err(Error::Interrupted { stage: Some(stage.name.clone()), signal, name: child::signal_name(signal) })
+        }
     }
 }

@@ -17,9 +17,9 @@ use std::path::Path;
 
 use reprise_artifact::segments::Segment;
 
+use crate::child::{self, Outcome};
 use crate::cli::InitArgs;
 use crate::error::{Error, Result};
-use crate::exec::{self, Outcome};
 use crate::locate::{locate, BinDirs};
 use crate::paths::{absolute, relative, ArtifactPath};
 use crate::pipeline::Pipeline;
@@ -216,7 +216,7 @@ struct Probe<'a> {
     pipeline: &'a Pipeline,
     dirs: &'a BinDirs,
     scratch: tempfile::TempDir,
-    interrupt: exec::Interrupt,
+    interrupt: child::Interrupt,
 }
 
 impl<'a> Probe<'a> {
@@ -225,7 +225,7 @@ impl<'a> Probe<'a> {
             .prefix("reprise-init")
             .tempdir()
             .map_err(|source| Error::Io { path: std::env::temp_dir(), source })?;
-        Ok(Self { pipeline, dirs, scratch, interrupt: exec::Interrupt::watch() })
+        Ok(Self { pipeline, dirs, scratch, interrupt: child::Interrupt::watch() })
     }
 
     /// A file of the scratch directory.
@@ -271,8 +271,8 @@ impl<'a> Probe<'a> {
             searched,
         })?;
         let log = self.file(&format!("{name}.log"));
-        let call = exec::Call { log: Some(&log), ..exec::Call::default() };
-        let outcome = exec::invoke(&stage, &bin, &self.pipeline.dir, call, &self.interrupt)?;
+        let call = child::Call { log: Some(&log), ..child::Call::default() };
+        let outcome = child::invoke(&stage, &bin, &self.pipeline.dir, call, &self.interrupt)?;
         let failed = |what: String, code: i32| Error::InitProbe {
             stage: name.into(),
             what,
@@ -283,11 +283,11 @@ impl<'a> Probe<'a> {
             Outcome::Success => Ok(()),
             Outcome::Failed(code) => Err(failed(format!("exit code {code}"), code)),
             Outcome::Killed(signal) => Err(failed(
-                format!("killed by signal {signal} ({})", exec::signal_name(signal)),
+                format!("killed by signal {signal} ({})", child::signal_name(signal)),
                 reprise_stagekit::exit::STAGE_CRASHED,
             )),
             Outcome::Interrupted(signal) => {
-                Err(Error::Interrupted { stage: Some(name.into()), signal, name: exec::signal_name(signal) })
+                Err(Error::Interrupted { stage: Some(name.into()), signal, name: child::signal_name(signal) })
             }
         }
     }

@@ -19,36 +19,38 @@
 //! | [`key`] | the cache key |
 //! | [`lock`] | the lock file |
 //! | [`cache`] | freshness and the reasons a stage is stale |
-//! | [`partition`] | the label partitions of an input, so `status` says which labels changed |
+//! | [`label_digest`] | the label partitions of an input, so `status` says which labels changed |
+//! | `record` | a stage run's lock records and the temporary files a dead stage left |
 //! | `partitioned` | running a partitioned stage one label at a time, cached per label, and merging |
-//! | [`exec`] | invoking a stage process |
+//! | [`child`] | invoking a stage as a child process |
 //! | [`executor`], [`slurm`] | where stage processes run: local children or Slurm job arrays |
-//! | [`run`], [`status`], [`dag_view`], [`inspect`], [`init`] | the subcommands |
+//! | [`run`], [`status`], [`dag_text`], [`inspect`], [`init`] | the subcommands |
 //! | [`error`] | the error type and its exit codes |
 //!
 //! There is no global state: [`main_with_args`] can be called any number of times in one
 //! process.
 
 pub mod cache;
+pub mod child;
 pub mod cli;
 pub mod clock;
 pub mod dag;
-pub mod dag_view;
+pub mod dag_text;
 pub mod error;
-pub mod exec;
 pub mod executor;
 pub mod guard;
 pub mod hash;
 pub mod init;
 pub mod inspect;
 pub mod key;
+pub mod label_digest;
 pub mod locate;
 pub mod lock;
 pub mod params;
-pub mod partition;
 mod partitioned;
 pub mod paths;
 pub mod pipeline;
+mod record;
 pub mod run;
 pub mod slurm;
 pub mod status;
@@ -111,7 +113,7 @@ pub fn main_with_io(
         }
         Command::Status(args) => status::status(&args.pipeline, &dirs, stdout, stderr),
         Command::Dag(args) => load(&args.pipeline.pipeline, dirs.known).map(|(p, d)| {
-            let _ = write!(stdout, "{}", dag_view::render(&p, &d, args.format));
+            let _ = write!(stdout, "{}", dag_text::render(&p, &d, args.format));
             if args.format == cli::DagFormat::Text {
                 let _ = write!(stdout, "{}", status::jobs(&p));
             }
@@ -137,6 +139,13 @@ pub fn load(path: &Path, known: &[Wiring]) -> Result<(Pipeline, Dag)> {
     let pipeline = Pipeline::load_wired(path, known)?;
     let dag = Dag::build(&pipeline)?;
     Ok((pipeline, dag))
+}
+
+/// Writes one progress line in one write (stages running beside it write to the same
+/// stderr) and flushes it, so it lands whole and before the next child's output.
+pub(crate) fn say(log: &mut dyn Write, line: &str) {
+    let _ = log.write_all(format!("{line}\n").as_bytes());
+    let _ = log.flush();
 }
 
 #[cfg(test)]

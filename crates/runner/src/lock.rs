@@ -23,7 +23,7 @@ pub struct FileRecord {
     /// Hex blake3 of the content.
     pub blake3: String,
     /// For an input with a `label` column, each label's digest
-    /// ([`crate::partition::label_digests`]), so `status` can say which labels changed.
+    /// ([`crate::label_digest::label_digests`]), so `status` can say which labels changed.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub labels: BTreeMap<String, String>,
 }

@@ -7,7 +7,7 @@
 //! `<artifacts>/partitions/<stage>/<label>/` (a pair's under `…/<from>/<to>/`). Its
 //! cache key ([`crate::key::cache_key`] of `<stage>[<label>]`) holds the binary's identity,
 //! the stage's parameters, the partition's output paths and, per input, the label's digest
-//! ([`crate::partition::label_digests`]) for an input with a `label` column, or the whole
+//! ([`crate::label_digest::label_digests`]) for an input with a `label` column, or the whole
 //! file's blake3 for one without (a pair: both labels' digests). So when one label's frames
 //! change, only that label's keys change (for pairs, the 2·(L−1) pairs holding it): the
 //! others are cached, and merged with the new ones
@@ -29,8 +29,8 @@ use reprise_artifact::partition::{self as parts, Part};
 use reprise_artifact::provenance::{InputRef, Provenance};
 
 use crate::cache::{self, ResolvedBin};
+use crate::child;
 use crate::error::{Error, Result};
-use crate::exec;
 use crate::executor::{Executor, Task};
 use crate::hash::FileHasher;
 use crate::key::cache_key;
@@ -38,7 +38,8 @@ use crate::lock::{FileRecord, LockEntry, LockFile, PartitionRecord};
 use crate::params::{canonical_json, ParamValue, Scalar};
 use crate::paths::{file_name, ArtifactPath};
 use crate::pipeline::{Pipeline, Stage};
-use crate::run::{record_inputs, record_outputs, remove_stale_temps, say};
+use crate::record::{record_inputs, record_outputs, remove_stale_temps};
+use crate::say;
 
 /// One partitioned stage to run.
 pub(crate) struct Job<'a> {
@@ -57,7 +58,7 @@ pub(crate) struct Job<'a> {
     /// Where the labels run.
     pub executor: &'a dyn Executor,
     /// The runner's signal watch.
-    pub interrupt: &'a exec::Interrupt,
+    pub interrupt: &'a child::Interrupt,
 }
 
 /// One partition's run: its stage (outputs under the partition directory, `--partition`

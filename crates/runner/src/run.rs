@@ -6,17 +6,19 @@ use std::io::Write;
 use std::time::{Instant, SystemTime};
 
 use crate::cache::{self, Assessment, ResolvedBin};
+use crate::child::{self, Outcome};
 use crate::cli::{ExecutorKind, RunArgs};
 use crate::dag::Dag;
 use crate::error::{Error, Result};
-use crate::exec::{self, Outcome};
 use crate::executor::{Done, Executor, Local, Slurm, SlurmOptions, Task};
 use crate::hash::FileHasher;
 use crate::locate::BinDirs;
-use crate::lock::{FileRecord, LockEntry, LockFile};
+use crate::lock::{LockEntry, LockFile};
 use crate::params::canonical_json;
 use crate::partitioned;
 use crate::pipeline::{Pipeline, Stage};
+use crate::record::{record_inputs, record_outputs, remove_stale_temps};
+use crate::say;
 use reprise_stagekit::wiring::Partition;
 
 /// Runs the pipeline; progress goes to `log` (the runner's stderr).
@@ -72,7 +74,7 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
 
     let bins = preflight(&pipeline, &dag, &plan, &to_run)?;
     let executor = executor(args);
-    let interrupt = exec::Interrupt::watch();
+    let interrupt = child::Interrupt::watch();
     say(log, &format!("{:>10} {} of {} stages", "checking", to_run.len(), order.len()));
     check(&pipeline, &bins, &to_run, &interrupt)?;
 
@@ -85,7 +87,7 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
             continue;
         };
         if let Some(signal) = interrupt.received() {
-            return Err(Error::Interrupted { stage: None, signal, name: exec::signal_name(signal) });
+            return Err(Error::Interrupted { stage: None, signal, name: child::signal_name(signal) });
         }
         let reasons: Vec<String> = plan[i].reasons.iter().map(ToString::to_string).collect();
         say(log, &format!("{:>10} {} ({})", "running", stage.name, reasons.join("; ")));
@@ -182,17 +184,17 @@ fn check(
     pipeline: &Pipeline,
     bins: &BTreeMap<usize, ResolvedBin>,
     to_run: &[usize],
-    interrupt: &exec::Interrupt,
+    interrupt: &child::Interrupt,
 ) -> Result<()> {
     let mut failures = Vec::new();
     let mut code = None;
     for &i in to_run {
         let stage = &pipeline.stages[i];
-        let (why, exit) = match exec::invoke(
+        let (why, exit) = match child::invoke(
             stage,
             &bins[&i].path,
             &pipeline.dir,
-            exec::Call { check: true, ..Default::default() },
+            child::Call { check: true, ..Default::default() },
             interrupt,
         )? {
             Outcome::Success => continue,
@@ -200,12 +202,12 @@ fn check(
                 return Err(Error::Interrupted {
                     stage: Some(stage.name.clone()),
                     signal,
-                    name: exec::signal_name(signal),
+                    name: child::signal_name(signal),
                 })
             }
             Outcome::Failed(c) => (format!("exit code {c}"), c),
             Outcome::Killed(s) => {
-                (format!("killed by signal {s} ({})", exec::signal_name(s)), reprise_stagekit::exit::STAGE_CRASHED)
+                (format!("killed by signal {s} ({})", child::signal_name(s)), reprise_stagekit::exit::STAGE_CRASHED)
             }
         };
         failures.push((stage.name.clone(), why));
@@ -223,7 +225,7 @@ fn run_stage(
     stage: &Stage,
     bin: &ResolvedBin,
     hasher: &mut FileHasher,
-    interrupt: &exec::Interrupt,
+    interrupt: &child::Interrupt,
     executor: &dyn Executor,
 ) -> Result<LockEntry> {
     let (inputs, input_records) = record_inputs(stage, hasher)?;
@@ -246,105 +248,6 @@ fn run_stage(
         partitions: BTreeMap::new(),
         job: ran.job,
     })
-}
-
-/// Each input's blake3, `None` for a file that is missing.
-pub(crate) type InputHashes = BTreeMap<String, Option<String>>;
-
-/// `stage`'s inputs hashed now (after upstream stages of this run rewrote them), and
-/// their lock records (with each label's digest for an input with a `label` column).
-pub(crate) fn record_inputs(
-    stage: &Stage,
-    hasher: &mut FileHasher,
-) -> Result<(InputHashes, BTreeMap<String, FileRecord>)> {
-    let inputs = cache::input_hashes(stage, hasher)?;
-    let mut records = BTreeMap::new();
-    for (name, path) in &stage.inputs {
-        let Some(blake3) = inputs[name].clone() else {
-            return Err(Error::SourceMissing {
-                stage: stage.name.clone(),
-                input: name.clone(),
-                path: path.rel.clone(),
-            });
-        };
-        let labels = crate::partition::label_digests(&path.abs).unwrap_or_default();
-        records.insert(name.clone(), FileRecord { path: path.rel.clone(), blake3, labels });
-    }
-    Ok((inputs, records))
-}
-
-/// Runs `stage` once as a child process (its outputs' directories created first) and
-/// returns the peak memory (MB) it reported; a failure is an error naming the stage.
-/// `plain_progress` asks it for plain progress lines (several stages run at once).
-pub(crate) fn invoke_measured(
-    pipeline: &Pipeline,
-    stage: &Stage,
-    bin: &ResolvedBin,
-    interrupt: &exec::Interrupt,
-    plain_progress: bool,
-) -> Result<Option<f64>> {
-    for (_, path) in &stage.outputs {
-        if let Some(parent) = path.abs.parent() {
-            std::fs::create_dir_all(parent).map_err(|source| Error::Io { path: parent.to_path_buf(), source })?;
-        }
-    }
-    let stats = pipeline.artifacts.abs.join(format!(".{}.stats.json", crate::paths::file_name(&stage.name)));
-    let _ = std::fs::create_dir_all(&pipeline.artifacts.abs);
-    let _ = std::fs::remove_file(&stats);
-    let call = exec::Call { stats: Some(&stats), plain_progress, ..Default::default() };
-    let outcome = exec::invoke(stage, &bin.path, &pipeline.dir, call, interrupt)?;
-    let peak_rss_mb = exec::read_peak(&stats);
-    let _ = std::fs::remove_file(&stats);
-    match outcome {
-        Outcome::Success => Ok(peak_rss_mb),
-        Outcome::Failed(code) => Err(Error::StageFailed { stage: stage.name.clone(), code }),
-        Outcome::Killed(signal) => {
-            Err(Error::StageKilled { stage: stage.name.clone(), signal, name: exec::signal_name(signal) })
-        }
-        Outcome::Interrupted(signal) => {
-            Err(Error::Interrupted { stage: Some(stage.name.clone()), signal, name: exec::signal_name(signal) })
-        }
-    }
-}
-
-/// The lock records of `stage`'s outputs, hashed now (after it ran); an output it did not
-/// write is an error.
-pub(crate) fn record_outputs(stage: &Stage, hasher: &mut FileHasher) -> Result<BTreeMap<String, FileRecord>> {
-    let mut outputs = BTreeMap::new();
-    for (name, path) in &stage.outputs {
-        hasher.forget(&path.abs);
-        let Some(blake3) = hasher.hash(&path.abs)? else {
-            return Err(Error::OutputNotWritten {
-                stage: stage.name.clone(),
-                output: name.clone(),
-                path: path.rel.clone(),
-            });
-        };
-        outputs.insert(name.clone(), FileRecord { path: path.rel.clone(), blake3, labels: BTreeMap::new() });
-    }
-    Ok(outputs)
-}
-
-/// Removes the temporary files (`.<name>.<pid>.tmp`) that a stage that died left beside
-/// its outputs. Only one run of a pipeline runs at a time and its stages die with it, so
-/// any such file is stale.
-pub(crate) fn remove_stale_temps(stage: &Stage) {
-    for (_, path) in &stage.outputs {
-        let (Some(dir), Some(name)) = (path.abs.parent(), path.abs.file_name()) else { continue };
-        let prefix = format!(".{}.", name.to_string_lossy());
-        let Ok(entries) = std::fs::read_dir(dir) else { continue };
-        for entry in entries.flatten() {
-            let file = entry.file_name();
-            let file = file.to_string_lossy();
-            let stale = file
-                .strip_prefix(&prefix)
-                .and_then(|rest| rest.strip_suffix(".tmp"))
-                .is_some_and(|pid| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()));
-            if stale {
-                let _ = std::fs::remove_file(entry.path());
-            }
-        }
-    }
 }
 
 /// Takes an exclusive advisory lock on `<artifacts>/.reprise.running` for the length of
@@ -375,11 +278,4 @@ fn hold_run_lock(pipeline: &Pipeline) -> Result<std::fs::File> {
             Err(std::fs::TryLockError::Error(source)) => return Err(Error::Io { path, source }),
         }
     }
-}
-
-/// Writes one progress line in one write (stages running beside it write to the same
-/// stderr) and flushes it, so it lands whole and before the next child's output.
-pub(crate) fn say(log: &mut dyn Write, line: &str) {
-    let _ = log.write_all(format!("{line}\n").as_bytes());
-    let _ = log.flush();
 }

@@ -22,8 +22,8 @@ use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
+use crate::child::{stage_args, Interrupt, STATS_ENV};
 use crate::error::{Error, Result};
-use crate::exec::{stage_args, Interrupt, STATS_ENV};
 use crate::executor::{Done, Executor, Task};
 use crate::pipeline::Pipeline;
 
@@ -368,13 +368,13 @@ fn outcome(job: &str, task: &Task<'_>, dir: &Path, i: usize, code: i32, seconds:
     match code {
         0 => Ok(Done {
             seconds,
-            peak_rss_mb: crate::exec::read_peak(&dir.join(format!("{i}.stats.json"))),
+            peak_rss_mb: crate::child::read_peak(&dir.join(format!("{i}.stats.json"))),
             job: Some(id),
         }),
         129..=192 => Err(Error::StageKilled {
             stage: format!("{} (job {id})", task.stage.name),
             signal: code - 128,
-            name: crate::exec::signal_name(code - 128),
+            name: crate::child::signal_name(code - 128),
         }),
         _ => Err(Error::TaskFailed {
             stage: task.stage.name.clone(),
@@ -407,7 +407,7 @@ fn wait(
             return Err(Error::Interrupted {
                 stage: Some(format!("{} (Slurm job {job}, cancelled)", tasks[0].stage.name)),
                 signal,
-                name: crate::exec::signal_name(signal),
+                name: crate::child::signal_name(signal),
             });
         }
         for (i, seen) in reported.iter_mut().enumerate() {

@@ -27,10 +27,10 @@ use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::motion_graph;
 use reprise_artifact::transitions::{self, Answer, Request};
 
+use reprise_model_library::ModelInputs;
 use reprise_stagekit::{StageError, StageResult};
 use reprise_synth_engine::engine::{self, Settings};
 use reprise_synth_engine::script::{Command, Script, Start};
-use reprise_synthesize::ModelInputs;
 use reprise_transition_graph::{blend_weight, Graph};
 use serde::Serialize;
 

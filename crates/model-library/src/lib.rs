@@ -1,0 +1,112 @@
+//! The synthesis engine's library, loaded from a pipeline's artifacts: the label models
+//! (GPLVM over PCA over scales, [`reprise_label_models`]), each model's training frames
+//! (from `gplvm_latents`) and the bridges — and the command-line inputs that name those
+//! artifacts, shared by every stage that runs the engine (`synthesize`, `transitions`).
+#![warn(missing_docs)]
+
+use std::path::PathBuf;
+
+use reprise_artifact::{bridges, gplvm};
+use reprise_stagekit::{StageError, StageResult};
+use reprise_synth_engine::engine::{Library, Link, TrainingFrame};
+
+/// The inputs every stage that runs the synthesis engine reads.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ModelInputs {
+    /// Input: the GPLVM models.
+    #[arg(long, value_name = "FILE")]
+    pub gplvm_models: PathBuf,
+    /// Input: the GPLVM latents (which training frame each latent point is).
+    #[arg(long, value_name = "FILE")]
+    pub latents: PathBuf,
+    /// Input: the PCA models.
+    #[arg(long, value_name = "FILE")]
+    pub pca_models: PathBuf,
+    /// Input: the scales.
+    #[arg(long, value_name = "FILE")]
+    pub scales: PathBuf,
+    /// Input: the bridges.
+    #[arg(long, value_name = "FILE")]
+    pub bridges: PathBuf,
+}
+
+impl ModelInputs {
+    /// (role, path) of each input, for provenance.
+    pub fn roles(&self) -> [(&'static str, &PathBuf); 5] {
+        [
+            ("gplvm_models", &self.gplvm_models),
+            ("latents", &self.latents),
+            ("pca_models", &self.pca_models),
+            ("scales", &self.scales),
+            ("bridges", &self.bridges),
+        ]
+    }
+
+    /// Loads them.
+    pub fn load(&self) -> StageResult<LibraryParts> {
+        LibraryParts::load(&self.gplvm_models, &self.latents, &self.pca_models, &self.scales, &self.bridges)
+    }
+}
+
+/// What the synthesis engine's [`Library`] borrows: the label models, each model's training
+/// frames (from `gplvm_latents`, in the model's point order) and the bridges.
+#[derive(Debug)]
+pub struct LibraryParts {
+    /// The models.
+    pub models: reprise_label_models::Models,
+    /// Per model, its training frames.
+    pub frames: Vec<Vec<TrainingFrame>>,
+    /// The bridges.
+    pub links: Vec<Link>,
+}
+
+impl LibraryParts {
+    /// Loads models, latents and bridges, checking that every model has one latent row per
+    /// training point.
+    pub fn load(
+        gplvm_models: &std::path::Path,
+        latents: &std::path::Path,
+        pca_models: &std::path::Path,
+        scales: &std::path::Path,
+        bridges_path: &std::path::Path,
+    ) -> StageResult<Self> {
+        reprise_label_models::check_library(gplvm_models, latents, pca_models, scales, bridges_path)?;
+        let models = reprise_label_models::load(gplvm_models, pca_models, scales)?;
+        let lat = gplvm::read_latents(latents)?;
+        let frames = models
+            .models
+            .iter()
+            .map(|m| {
+                let f: Vec<TrainingFrame> = (0..lat.label.len())
+                    .filter(|&r| lat.label[r] == m.label)
+                    .map(|r| TrainingFrame {
+                        segment: lat.segment_id[r],
+                        clip: lat.clip[r].clone(),
+                        frame: lat.frame[r],
+                        x: lat.x[r].clone(),
+                    })
+                    .collect();
+                if f.len() != m.predictor.n() {
+                    return Err(StageError::Input(format!(
+                        "{}: label `{}` has {} latent rows but its model {} points; rerun gplvm",
+                        latents.display(),
+                        m.label,
+                        f.len(),
+                        m.predictor.n()
+                    )));
+                }
+                Ok(f)
+            })
+            .collect::<StageResult<_>>()?;
+        let links = bridges::read(bridges_path)?
+            .into_iter()
+            .map(|b| Link { from: b.from, to: b.to, x1: b.x1, x2: b.x2, distance: b.rig_distance })
+            .collect();
+        Ok(Self { models, frames, links })
+    }
+
+    /// The engine's view.
+    pub fn library(&self) -> Library<'_> {
+        Library { models: self.models.models.iter().collect(), frames: self.frames.clone(), links: self.links.clone() }
+    }
+}
