@@ -246,4 +246,27 @@ mod tests {
         assert_eq!(read_all(&path, &controls).unwrap()[&7].controls[1], vec![0.2, 0.3]);
         let _ = std::fs::remove_dir_all(&dir);
     }
+
+    /// Scripts stream in request order; one that comes back to an earlier request (a
+    /// script split in two, or out of order) is refused naming the file and the script,
+    /// and scripts not named `r<id>` are skipped.
+    #[test]
+    fn scripts_out_of_request_order_are_refused() {
+        let dir = std::env::temp_dir().join(format!("reprise-order-curves-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let controls = vec!["jaw".to_string()];
+        let provenance = reprise_artifact::Provenance::new("t", "0", serde_json::json!({}));
+        let path = dir.join("curves.parquet");
+        let mut c = Curves { fps: 24.0, controls: controls.clone(), ..Default::default() };
+        for name in ["r1", "demo", "r4", "r2"] {
+            c.push_script(name, [curves::Frame::plain("a", &[0.5])]);
+        }
+        curves::write(&path, &c, &provenance).unwrap();
+        let mut stream = PlayedStream::open(&path, &controls).unwrap();
+        assert_eq!(stream.next().unwrap().unwrap().0, 1);
+        assert_eq!(stream.next().unwrap().unwrap().0, 4, "`demo` is skipped");
+        let e = stream.next().unwrap().unwrap_err().to_string();
+        assert!(e.contains("curves.parquet") && e.contains("`r2`") && e.contains("request order"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
