@@ -263,6 +263,42 @@ pub struct Outcome {
     pub counts: Vec<PairCount>,
 }
 
+/// The stage's summary: one line per ordered pair (candidates, bridges kept, the best rig
+/// distance, the pair's per-frame mesh motion and the largest mesh distance kept), then how
+/// many pairs have no direct bridge.
+impl std::fmt::Display for Outcome {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "{:<12} {:<12} {:>10} {:>5} {:>12} {:>12} {:>12}",
+            "from", "to", "candidates", "kept", "best rig dist", "frame motion", "max mesh"
+        )?;
+        let or_dash = |v: Option<f64>| v.map_or_else(|| "-".into(), |v| format!("{v:.4}"));
+        for c in &self.counts {
+            writeln!(
+                f,
+                "{:<12} {:<12} {:>10} {:>5} {:>12.4} {:>12} {:>12}",
+                c.from,
+                c.to,
+                c.candidates,
+                c.kept,
+                c.best,
+                or_dash(c.frame_motion),
+                or_dash(c.max_mesh)
+            )?;
+        }
+        let none = self.counts.iter().filter(|c| c.kept == 0).count();
+        if none > 0 {
+            writeln!(
+                f,
+                "{none} of {} ordered pairs have no direct bridge (synthesis routes through a third label)",
+                self.counts.len()
+            )?;
+        }
+        Ok(())
+    }
+}
+
 /// One candidate of a pair.
 struct Candidate {
     point: usize,
@@ -483,6 +519,27 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
 
 #[cfg(test)]
 mod tests {
+    /// The summary has a header, a line per pair (a dash where a measure does not apply)
+    /// and counts the pairs without a bridge.
+    #[test]
+    fn the_summary_lists_every_pair() {
+        let pair = |to: &str, kept| super::PairCount {
+            from: "a".into(),
+            to: to.into(),
+            candidates: 10,
+            kept,
+            best: 0.5,
+            frame_motion: Some(0.25),
+            max_mesh: None,
+        };
+        let text = super::Outcome { counts: vec![pair("b", 3), pair("c", 0)] }.to_string();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 4, "{text}");
+        assert!(lines[0].starts_with("from") && lines[1].starts_with("a            b"), "{text}");
+        assert!(lines[1].contains("0.5000") && lines[1].contains("0.2500") && lines[1].trim_end().ends_with('-'));
+        assert_eq!(lines[3], "1 of 2 ordered pairs have no direct bridge (synthesis routes through a third label)");
+    }
+
     use super::*;
     use reprise_artifact::frames::Frames;
     use reprise_rig::local::{Local, PoseEvaluator};

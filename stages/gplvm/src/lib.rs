@@ -12,6 +12,7 @@
 //! interpolation. All as RMS mesh errors.
 
 mod heldout;
+pub mod summary;
 
 use std::path::PathBuf;
 use std::time::Instant;

@@ -120,6 +120,44 @@ pub struct Summary {
     pub errors: Vec<pca::PcaError>,
 }
 
+/// The stage's summary: per label its frames, controls, chosen d and explained share (and
+/// the unscaled variant's d), then the mesh RMS error of scaled against unscaled PCA at
+/// d = 3, 10 and the chosen d ("-" where not measured).
+impl std::fmt::Display for Summary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "{:<14} {:>6} {:>8} {:>3} {:>9} {:>10}",
+            "label", "frames", "controls", "d", "explained", "d unscaled"
+        )?;
+        for l in &self.labels {
+            writeln!(
+                f,
+                "{:<14} {:>6} {:>8} {:>3} {:>9.3} {:>10}",
+                l.label, l.frames, l.controls, l.d, l.explained, l.d_unscaled
+            )?;
+        }
+        writeln!(f, "mesh RMS error (scaled / unscaled) at the same d:")?;
+        for l in &self.labels {
+            let at = |variant: &str, d: i64| {
+                self.errors
+                    .iter()
+                    .find(|e| e.label == l.label && e.variant == variant && e.d == d)
+                    .and_then(|e| e.mesh_rmse)
+            };
+            let cells: Vec<String> = [3, 10, l.d as i64]
+                .iter()
+                .map(|&d| match (at("scaled", d), at("unscaled", d)) {
+                    (Some(a), Some(b)) => format!("d={d}: {a:.4} / {b:.4}"),
+                    _ => format!("d={d}: -"),
+                })
+                .collect();
+            writeln!(f, "  {:<12} {}", l.label, cells.join("   "))?;
+        }
+        Ok(())
+    }
+}
+
 /// One label's frames and its scaling.
 pub(crate) struct LabelData {
     /// Row indices into the labeled frames.
@@ -235,3 +273,35 @@ pub const WIRING: reprise_stagekit::wiring::Wiring = {
         partition: wiring::Partition::Label { by: "labeled_frames" },
     }
 };
+
+#[cfg(test)]
+mod summary_tests {
+    /// A line per label, then its errors at d = 3, 10 and its own d, "-" where a variant
+    /// was not measured.
+    #[test]
+    fn the_summary_compares_scaled_and_unscaled() {
+        let l = super::LabelSummary {
+            label: "happy".into(),
+            frames: 300,
+            controls: 700,
+            d: 5,
+            explained: 0.86,
+            d_unscaled: 7,
+        };
+        let err = |variant: &str, d, mesh| reprise_artifact::pca::PcaError {
+            label: "happy".into(),
+            variant: variant.into(),
+            d,
+            which: "fixed".into(),
+            explained: 0.5,
+            rig_rmse: 1.0,
+            mesh_rmse: Some(mesh),
+        };
+        let s = super::Summary { labels: vec![l], errors: vec![err("scaled", 3, 0.25), err("unscaled", 3, 0.5)] };
+        let text = s.to_string();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 4, "{text}");
+        assert!(lines[1].starts_with("happy") && lines[1].contains("0.860"), "{text}");
+        assert_eq!(lines[3], "  happy        d=3: 0.2500 / 0.5000   d=10: -   d=5: -");
+    }
+}
