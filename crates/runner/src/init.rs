@@ -437,31 +437,19 @@ pub fn pipeline_text(name: &str, source: &Source, fps: f64, labels: &str) -> Str
     t
 }
 
-/// Every stage after label, as the shipped pipelines set them.
-const SHARED_STAGES: &str = r#"[stage.scale]
+/// Every stage after label, with only the parameters whose value differs from the stage's
+/// own default (`crates/reprise/tests/init_template.rs` checks that each one does), so the
+/// template copies no default that could drift.
+const SHARED_STAGES: &str = r#"# Every parameter not written here is the stage's own default (`reprise-<stage> --help`).
+[stage.scale]
 
 [stage.pca]
-[stage.pca.params]
-variance = 0.85
-min_components = 3
 
 [stage.gplvm]
 [stage.gplvm.params]
-q = 3
-optimizer = "lbfgs"
-connectivity_path = "auto"     # exact up to 300 frames a label, the coarse graph above
-signal_prior_sd = 0.25         # fitted to convergence (docs/method.md, "The GPLVM fit")
-noise_floor = 1e-2
-max_iters = 10000              # a safety net: a fit that reaches it is reported NOT converged
-dynamics_lengthscale = 0.2     # seconds
-connectivity_weight = 1e-3
 heldout_every = 10             # leave out every 10th frame and compare with PCA
 
 [stage.bridges]
-[stage.bridges.params]
-threshold = "mesh-motion"
-motion_multiple = 16.0
-motion_quantile = 0.5
 
 [stage.synthesize]
 inputs.scripts = "scripts/demo.toml"
@@ -470,21 +458,11 @@ radius = 0.2
 
 [stage.motion-graph]
 [stage.motion-graph.params]
-window = 12
 quantile = 0.2
 
 [stage.transitions]
-[stage.transitions.params]
-per_pair = 20          # fewer with many labels: at most max_requests in all
-max_requests = 1200
 
 [stage.motion-match]
-[stage.motion-match.params]
-features = 8
-search_interval = 0.1
-halflife = 0.1
-blend_frames = 12
-hold = 0.5
 
 [stage.evaluate]
 "#;
