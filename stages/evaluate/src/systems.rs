@@ -178,7 +178,7 @@ impl PlayedStream {
                 )));
             }
             self.last = Some(id);
-            return played(&self.path, script, first_row).map(|p| Some((id, p)));
+            return played(&self.path, &self.scripts.controls, script, first_row).map(|p| Some((id, p)));
         }
     }
 }
@@ -193,17 +193,17 @@ impl Iterator for PlayedStream {
 
 /// One script's frames. A non-finite control would measure as a perfect score (every
 /// comparison with NaN is false): refused, naming the row and the control.
-fn played(path: &Path, s: curves::Script, first_row: usize) -> StageResult<Played> {
+fn played(path: &Path, controls: &[String], s: curves::Script, first_row: usize) -> StageResult<Played> {
     let frames = s.frame.len();
     let n = s.values.len().checked_div(frames).unwrap_or(0);
     if let Some(i) = s.values.iter().position(|v| !v.is_finite()) {
         return Err(StageError::Input(format!(
-            "{}: row {} (script `{}`, frame {}), control {} is {}; rerun the stage that wrote it",
+            "{}: row {} (script `{}`, frame {}), control `{}` is {}; rerun the stage that wrote it",
             path.display(),
             first_row + i / n.max(1),
             s.name,
             s.frame.get(i / n.max(1)).copied().unwrap_or(-1),
-            i % n.max(1),
+            controls.get(i % n.max(1)).map_or("?", String::as_str),
             s.values[i]
         )));
     }
