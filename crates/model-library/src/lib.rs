@@ -1,52 +1,12 @@
 //! The synthesis engine's library, loaded from a pipeline's artifacts: the label models
 //! (GPLVM over PCA over scales, [`reprise_label_models`]), each model's training frames
-//! (from `gplvm_latents`) and the bridges — and the command-line inputs that name those
-//! artifacts, shared by every stage that runs the engine (`synthesize`, `transitions`).
+//! (from `gplvm_latents`) and the bridges, shared by every stage that runs the engine
+//! (`synthesize`, `transitions`).
 #![warn(missing_docs)]
-
-use std::path::PathBuf;
 
 use reprise_artifact::{bridges, gplvm};
 use reprise_stagekit::{StageError, StageResult};
 use reprise_synth_engine::engine::{Library, Link, TrainingFrame};
-
-/// The inputs every stage that runs the synthesis engine reads.
-#[derive(Debug, Clone, clap::Args)]
-pub struct ModelInputs {
-    /// Input: the GPLVM models.
-    #[arg(long, value_name = "FILE")]
-    pub gplvm_models: PathBuf,
-    /// Input: the GPLVM latents (which training frame each latent point is).
-    #[arg(long, value_name = "FILE")]
-    pub latents: PathBuf,
-    /// Input: the PCA models.
-    #[arg(long, value_name = "FILE")]
-    pub pca_models: PathBuf,
-    /// Input: the scales.
-    #[arg(long, value_name = "FILE")]
-    pub scales: PathBuf,
-    /// Input: the bridges.
-    #[arg(long, value_name = "FILE")]
-    pub bridges: PathBuf,
-}
-
-impl ModelInputs {
-    /// (role, path) of each input, for provenance.
-    pub fn roles(&self) -> [(&'static str, &PathBuf); 5] {
-        [
-            ("gplvm_models", &self.gplvm_models),
-            ("latents", &self.latents),
-            ("pca_models", &self.pca_models),
-            ("scales", &self.scales),
-            ("bridges", &self.bridges),
-        ]
-    }
-
-    /// Loads them.
-    pub fn load(&self) -> StageResult<LibraryParts> {
-        LibraryParts::load(&self.gplvm_models, &self.latents, &self.pca_models, &self.scales, &self.bridges)
-    }
-}
 
 /// What the synthesis engine's [`Library`] borrows: the label models, each model's training
 /// frames (from `gplvm_latents`, in the model's point order) and the bridges.

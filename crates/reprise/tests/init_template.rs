@@ -2,7 +2,6 @@
 //! differs from the default of the stage that reads it (a default lives in the stage's
 //! flags only, so it cannot drift from a copy), and names a flag the stage has.
 
-use clap::CommandFactory;
 use reprise_runner::init::{pipeline_text, Source};
 
 /// The `[stage.NAME.params]` entries of a pipeline text: (stage, key, value without quotes
@@ -23,21 +22,7 @@ fn params(text: &str) -> Vec<(String, String, String)> {
 }
 
 fn command(stage: &str) -> clap::Command {
-    match stage {
-        "ingest" => reprise_ingest::Args::command(),
-        "label" => reprise_label::Args::command(),
-        "scale" => reprise_scale::Args::command(),
-        "pca" => reprise_pca::Args::command(),
-        "gplvm" => reprise_gplvm::Args::command(),
-        "bridges" => reprise_bridges::Args::command(),
-        "synthesize" => reprise_synthesize::Args::command(),
-        "motion-graph" => reprise_motion_graph::Args::command(),
-        "transitions" => reprise_transitions::Args::command(),
-        "motion-match" => reprise_motion_match::Args::command(),
-        "evaluate" => reprise_evaluate::Args::command(),
-        "export-gltf" => reprise_export_gltf::Args::command(),
-        other => panic!("the template has a stage `{other}` this test does not know"),
-    }
+    reprise::command(stage).unwrap_or_else(|| panic!("the template has a stage `{stage}` reprise does not have"))
 }
 
 /// Whether two flag values are the same (numbers compared as numbers: `16.0` is `16`).

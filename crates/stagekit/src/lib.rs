@@ -16,7 +16,9 @@ pub use error::{StageError, StageResult};
 
 pub use indicatif::ProgressBar;
 use indicatif::ProgressStyle;
-use reprise_artifact::Provenance;
+pub use reprise_artifact::Provenance;
+#[doc(hidden)]
+pub use serde;
 use serde::Serialize;
 
 /// What precedes a stage binary's code identity in its bytes (see [`code_id!`]).

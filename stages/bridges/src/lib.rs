@@ -17,8 +17,6 @@
 //! the pair's own rig distances (every pair keeps at least one bridge), or an absolute rig
 //! or mesh distance.
 
-use std::path::PathBuf;
-
 use clap::{Parser, ValueEnum};
 use rayon::prelude::*;
 use reprise_artifact::bridges::{self, Bridge};
@@ -46,35 +44,37 @@ pub enum Threshold {
     MeshMotion,
 }
 
+reprise_stagekit::stage_io! {
+    stage: "bridges", bin: "reprise-bridges",
+    partition: LabelPair { by: "gplvm_models" },
+    derived: [],
+    inputs {
+        /// Input: the GPLVM models.
+        gplvm_models: required "gplvm_models.parquet",
+        /// Input: the PCA models.
+        pca_models: required "pca_models.parquet",
+        /// Input: the scales.
+        scales: required "scales.parquet",
+        /// Input: the controls table (names the rig, for mesh distances).
+        controls: optional "controls.parquet",
+        /// Input (for `--threshold mesh-motion`): the labeled frames, whose per-frame mesh
+        /// motion sets the threshold.
+        labeled_frames: optional "labeled_frames.parquet",
+    }
+    outputs {
+        /// Output: the bridges.
+        bridges: artifact "bridges.parquet",
+    }
+}
+
 /// `reprise-bridges`: matching latent points between every ordered pair of label models.
 #[derive(Debug, Clone, Parser, Serialize)]
 #[command(name = "reprise-bridges", version, about)]
 pub struct Args {
-    /// Input: the GPLVM models.
-    #[arg(long, value_name = "FILE")]
+    /// The stage's files.
+    #[command(flatten)]
     #[serde(skip)]
-    pub gplvm_models: PathBuf,
-    /// Input: the PCA models.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub pca_models: PathBuf,
-    /// Input: the scales.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub scales: PathBuf,
-    /// Input: the controls table (names the rig, for mesh distances).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub controls: Option<PathBuf>,
-    /// Input (for `--threshold mesh-motion`): the labeled frames, whose per-frame mesh
-    /// motion sets the threshold.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub labeled_frames: Option<PathBuf>,
-    /// Output: the bridges.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub bridges: PathBuf,
+    pub io: Io,
     /// Try every k-th training point of M1.
     #[arg(long, default_value_t = 1)]
     pub stride: usize,
@@ -107,18 +107,6 @@ pub struct Args {
     /// Seed of the random starts (each pair's seed mixes in its two labels' names).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Only the pair from this label (the runner's partitioned run), to `--partition-to`.
-    #[arg(long, value_name = "LABEL", requires = "partition_to")]
-    #[serde(skip)]
-    pub partition: Option<String>,
-    /// Only the pair to this label (with `--partition`).
-    #[arg(long, value_name = "LABEL", requires = "partition")]
-    #[serde(skip)]
-    pub partition_to: Option<String>,
-    /// Only validate the flags and exit.
-    #[arg(long)]
-    #[serde(skip)]
-    pub check: bool,
 }
 
 /// The most starts of each kind per candidate (each is an SCG run).
@@ -144,8 +132,8 @@ impl Args {
             Threshold::Rig | Threshold::Mesh if !self.max_distance.is_some_and(|d| d.is_finite() && d >= 0.0) => {
                 cfg("--threshold rig|mesh needs --max-distance >= 0")
             }
-            Threshold::Mesh if self.controls.is_none() => cfg("--threshold mesh needs --controls (the rig)"),
-            Threshold::MeshMotion if self.controls.is_none() || self.labeled_frames.is_none() => {
+            Threshold::Mesh if self.io.controls.is_none() => cfg("--threshold mesh needs --controls (the rig)"),
+            Threshold::MeshMotion if self.io.controls.is_none() || self.io.labeled_frames.is_none() => {
                 cfg("--threshold mesh-motion needs --controls (the rig) and --labeled-frames")
             }
             Threshold::MeshMotion
@@ -338,42 +326,38 @@ fn candidates(m1: &LatentModel, m2: &LatentModel, train2: &[f64], args: &Args, s
 /// Runs the stage (or only validates, with `--check`).
 pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
     args.validate()?;
-    if args.check {
+    if args.io.check {
         return Ok(None);
     }
-    let mut provenance = reprise_stagekit::provenance("bridges", env!("CARGO_PKG_VERSION"), args)
-        .with_input("gplvm_models", &args.gplvm_models)?
-        .with_input("pca_models", &args.pca_models)?
-        .with_input("scales", &args.scales)?;
-    if let Some(c) = &args.controls {
-        provenance = provenance.with_input("controls", c)?;
-    }
-    if let Some(l) = &args.labeled_frames {
-        provenance = provenance.with_input("labeled_frames", l)?;
-    }
+    let provenance = args.io.provenance(args)?;
     // The models must have been fit on these labeled frames and controls (the PCA and
     // scales are checked by `reprise_label_models::load`).
-    reprise_artifact::provenance::check_made_from(&args.gplvm_models, &provenance)?;
-    let Models { controls, models } = reprise_label_models::load(&args.gplvm_models, &args.pca_models, &args.scales)?;
+    reprise_artifact::provenance::check_made_from(&args.io.gplvm_models, &provenance)?;
+    let Models { controls, models } =
+        reprise_label_models::load(&args.io.gplvm_models, &args.io.pca_models, &args.io.scales)?;
     if models.len() < 2 {
         return Err(StageError::Input(format!(
             "{}: {} label model(s); bridges need at least two",
-            args.gplvm_models.display(),
+            args.io.gplvm_models.display(),
             models.len()
         )));
     }
-    let rig =
-        args.controls.as_ref().map(|c| reprise_stagekit::rig::open_rig(&Controls::read(c)?, &controls)).transpose()?;
+    let rig = args
+        .io
+        .controls
+        .as_ref()
+        .map(|c| reprise_stagekit::rig::open_rig(&Controls::read(c)?, &controls))
+        .transpose()?;
     let pairs = pairs_to_run(&models, args)?;
     let used = |i: usize| pairs.iter().any(|&(a, b)| a == i || b == i);
-    let steps = match (args.threshold, &args.labeled_frames, rig.as_ref()) {
+    let steps = match (args.threshold, &args.io.labeled_frames, rig.as_ref()) {
         (Threshold::MeshMotion, Some(path), Some(r)) => {
             let lf = LabeledFrames::read(path)?;
             if lf.frames.controls != controls {
                 return Err(StageError::Input(format!(
                     "{} has other controls than the models of {}; rerun the stages after label",
                     path.display(),
-                    args.gplvm_models.display()
+                    args.io.gplvm_models.display()
                 )));
             }
             let labels: Vec<&str> = (0..models.len()).filter(|&i| used(i)).map(|i| models[i].label.as_str()).collect();
@@ -472,7 +456,7 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
         all.extend(rows);
         counts.push(count);
     }
-    bridges::write(&args.bridges, &all, models[0].q(), &provenance)?;
+    bridges::write(&args.io.bridges, &all, models[0].q(), &provenance)?;
     Ok(Some(Outcome { counts }))
 }
 
@@ -480,12 +464,12 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
 /// `--partition` and `--partition-to` name.
 fn pairs_to_run(models: &[LatentModel], args: &Args) -> StageResult<Vec<(usize, usize)>> {
     let all = (0..models.len()).flat_map(|a| (0..models.len()).filter(move |&b| b != a).map(move |b| (a, b)));
-    let (Some(from), Some(to)) = (&args.partition, &args.partition_to) else { return Ok(all.collect()) };
+    let (Some(from), Some(to)) = (&args.io.partition, &args.io.partition_to) else { return Ok(all.collect()) };
     let find = |label: &str| {
         models.iter().position(|m| m.label == label).ok_or_else(|| {
             StageError::Input(format!(
                 "{}: no label `{label}` for --partition (labels: {})",
-                args.gplvm_models.display(),
+                args.io.gplvm_models.display(),
                 models.iter().map(|m| m.label.as_str()).collect::<Vec<_>>().join(", ")
             ))
         })
@@ -496,26 +480,6 @@ fn pairs_to_run(models: &[LatentModel], args: &Args) -> StageResult<Vec<(usize, 
     }
     Ok(vec![(a, b)])
 }
-
-/// What the stage reads and writes, for the runner's wiring by artifact
-/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
-pub const WIRING: reprise_stagekit::wiring::Wiring = {
-    use reprise_stagekit::wiring;
-    wiring::Wiring {
-        stage: "bridges",
-        bin: "reprise-bridges",
-        inputs: &[
-            wiring::required("gplvm_models", "gplvm_models.parquet"),
-            wiring::required("pca_models", "pca_models.parquet"),
-            wiring::required("scales", "scales.parquet"),
-            wiring::optional("controls", "controls.parquet"),
-            wiring::optional("labeled_frames", "labeled_frames.parquet"),
-        ],
-        outputs: &[wiring::artifact("bridges", "bridges.parquet")],
-        derived: &[],
-        partition: wiring::Partition::LabelPair { by: "gplvm_models" },
-    }
-};
 
 #[cfg(test)]
 mod tests {

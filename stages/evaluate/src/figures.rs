@@ -60,7 +60,7 @@ pub fn pose(m: &LatentModel, x: &[f64]) -> Vec<f64> {
 /// The page's content.
 pub fn figures<'a>(inp: Inputs<'a>, provenance: &reprise_artifact::Provenance) -> StageResult<html::Page<'a>> {
     let args = inp.args;
-    let lat = reprise_artifact::gplvm::read_latents(&args.latents)?;
+    let lat = reprise_artifact::gplvm::read_latents(&args.io.latents)?;
     let latents: Vec<LatentPanel> = inp
         .labels
         .iter()
@@ -76,7 +76,7 @@ pub fn figures<'a>(inp: Inputs<'a>, provenance: &reprise_artifact::Provenance) -
     let mut best: Vec<&bridges::Bridge> = inp.links.iter().filter(|b| b.rank == 1).collect();
     let latent_bridges =
         best.iter().filter_map(|b| Some((index(&b.from)?, xy(&b.x1), index(&b.to)?, xy(&b.x2)))).collect();
-    let models = reprise_label_models::load(&args.gplvm_models, &args.pca_models, &args.scales)?;
+    let models = reprise_label_models::load(&args.io.gplvm_models, &args.io.pca_models, &args.io.scales)?;
     best.sort_by(|a, b| {
         a.mesh_distance.unwrap_or(a.rig_distance).total_cmp(&b.mesh_distance.unwrap_or(b.rig_distance))
     });
@@ -88,7 +88,7 @@ pub fn figures<'a>(inp: Inputs<'a>, provenance: &reprise_artifact::Provenance) -
         let caption = format!("{} → {} (mesh distance {:.3})", b.from, b.to, b.mesh_distance.unwrap_or(f64::NAN));
         bridge_figs.push((caption, poses[..half].to_vec(), poses[half..].to_vec()));
     }
-    let synth = curves::read(&args.curves)?;
+    let synth = curves::read(&args.io.curves)?;
     let filmstrip = filmstrip(inp.rig, &synth)?;
     let mut missing = missing(inp.systems, inp.requests, inp.labels);
     let player = player::build(&player::Inputs {
@@ -107,14 +107,14 @@ pub fn figures<'a>(inp: Inputs<'a>, provenance: &reprise_artifact::Provenance) -
     if player.groups.is_empty() {
         missing.push("No transition request to play: the player shows the synthesized scripts only.".into());
     }
-    let traces = match &args.gplvm_trace {
+    let traces = match &args.io.gplvm_trace {
         Some(p) => traces(p)?,
         None => {
             missing.push("No GPLVM trace given (--gplvm-trace): the fit-trace figure is empty.".into());
             vec![]
         }
     };
-    let fits = fit_rows(&args.gplvm_fits)?;
+    let fits = fit_rows(&args.io.gplvm_fits)?;
     let latencies = inp
         .systems
         .iter()

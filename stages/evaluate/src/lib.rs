@@ -50,121 +50,81 @@ use training::Training;
 /// Kind of the metrics table.
 pub const METRICS: Kind = Kind { name: "metrics", version: 4 };
 
+reprise_stagekit::stage_io! {
+    stage: "evaluate", bin: "reprise-evaluate",
+    partition: Whole,
+    derived: [("name", PipelineName), ("lock", LockFile)],
+    inputs {
+        /// Input: the labeled frames.
+        labeled_frames: required "labeled_frames.parquet",
+        /// Input: the controls table (the rig).
+        controls: required "controls.parquet",
+        /// Input: the scales.
+        scales: required "scales.parquet",
+        /// Input: the transition requests.
+        requests: required "transition_requests.parquet",
+        /// Input: reprise's answers.
+        reprise_answers: required "answers_reprise.parquet",
+        /// Input: reprise's transition curves.
+        reprise_curves: required "transitions_reprise.parquet",
+        /// Input: reprise's transition curves under other seeds.
+        reprise_reseeded: required "transitions_reprise_reseeded.parquet",
+        /// Input: the Motion Graphs baseline's answers.
+        motion_graphs_answers: required "answers_motion_graphs.parquet",
+        /// Input: the Motion Graphs baseline's transition curves.
+        motion_graphs_curves: required "transitions_motion_graphs.parquet",
+        /// Input: the Motion Graphs baseline's transition curves.under other seeds.
+        motion_graphs_reseeded: required "transitions_motion_graphs_reseeded.parquet",
+        /// Input (optional): motion matching's answers (with `--mm-curves`).
+        mm_answers: optional "answers_motion_matching.parquet",
+        /// Input (optional): motion matching's curves.
+        mm_curves: optional "transitions_motion_matching.parquet",
+        /// Input (optional): the crossfade baseline's answers (with `--crossfade-curves`).
+        crossfade_answers: optional "answers_crossfade.parquet",
+        /// Input (optional): the crossfade baseline's curves.
+        crossfade_curves: optional "transitions_crossfade.parquet",
+        /// Input: the bridges.
+        bridges: required "bridges.parquet",
+        /// Input: the motion graph's nodes.
+        mg_nodes: required "mg_nodes.parquet",
+        /// Input: the motion graph's edges.
+        mg_edges: required "mg_edges.parquet",
+        /// Input: the GPLVM fit summaries (held-out errors).
+        gplvm_fits: required "gplvm_fits.parquet",
+        /// Input (optional): the GPLVM optimisation traces (the fit-trace figure).
+        gplvm_trace: optional "gplvm_trace.parquet",
+        /// Input: the PCA errors (the scaling ablation).
+        pca_errors: required "pca_errors.parquet",
+        /// Input: the GPLVM latents (the latent-space figures).
+        latents: required "gplvm_latents.parquet",
+        /// Input: the GPLVM models (bridge poses).
+        gplvm_models: required "gplvm_models.parquet",
+        /// Input: the PCA models (bridge poses).
+        pca_models: required "pca_models.parquet",
+        /// Input: synthesized curves (the filmstrip shows their first script).
+        curves: required "curves.parquet",
+    }
+    outputs {
+        /// Output: the metrics table.
+        metrics: report "metrics.parquet",
+        /// Output: the Markdown report.
+        report: report "report.md",
+        /// Output: the HTML report (self-contained).
+        html: report "index.html",
+    }
+}
+
 /// `reprise-evaluate`: metrics and the report.
 #[derive(Debug, Clone, Parser, Serialize)]
 #[command(name = "reprise-evaluate", version, about)]
 pub struct Args {
-    /// Input: the labeled frames.
-    #[arg(long, value_name = "FILE")]
+    /// The stage's files.
+    #[command(flatten)]
     #[serde(skip)]
-    pub labeled_frames: PathBuf,
-    /// Input: the controls table (the rig).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub controls: PathBuf,
-    /// Input: the scales.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub scales: PathBuf,
-    /// Input: the transition requests.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub requests: PathBuf,
-    /// Input: reprise's answers.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub reprise_answers: PathBuf,
-    /// Input: reprise's transition curves.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub reprise_curves: PathBuf,
-    /// Input: reprise's transition curves under other seeds.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub reprise_reseeded: PathBuf,
-    /// Input: the Motion Graphs baseline's answers.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub motion_graphs_answers: PathBuf,
-    /// Input: the Motion Graphs baseline's transition curves.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub motion_graphs_curves: PathBuf,
-    /// Input: the Motion Graphs baseline's transition curves.under other seeds.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub motion_graphs_reseeded: PathBuf,
-    /// Input (optional): motion matching's answers (with `--mm-curves`).
-    #[arg(long, value_name = "FILE", requires = "mm_curves")]
-    #[serde(skip)]
-    pub mm_answers: Option<PathBuf>,
-    /// Input (optional): motion matching's curves.
-    #[arg(long, value_name = "FILE", requires = "mm_answers")]
-    #[serde(skip)]
-    pub mm_curves: Option<PathBuf>,
-    /// Input (optional): the crossfade baseline's answers (with `--crossfade-curves`).
-    #[arg(long, value_name = "FILE", requires = "crossfade_curves")]
-    #[serde(skip)]
-    pub crossfade_answers: Option<PathBuf>,
-    /// Input (optional): the crossfade baseline's curves.
-    #[arg(long, value_name = "FILE", requires = "crossfade_answers")]
-    #[serde(skip)]
-    pub crossfade_curves: Option<PathBuf>,
-    /// Input: the bridges.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub bridges: PathBuf,
-    /// Input: the motion graph's nodes.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub mg_nodes: PathBuf,
-    /// Input: the motion graph's edges.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub mg_edges: PathBuf,
-    /// Input: the GPLVM fit summaries (held-out errors).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub gplvm_fits: PathBuf,
-    /// Input (optional): the GPLVM optimisation traces (the fit-trace figure).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub gplvm_trace: Option<PathBuf>,
-    /// Input: the PCA errors (the scaling ablation).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub pca_errors: PathBuf,
-    /// Input: the GPLVM latents (the latent-space figures).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub latents: PathBuf,
-    /// Input: the GPLVM models (bridge poses).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub gplvm_models: PathBuf,
-    /// Input: the PCA models (bridge poses).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub pca_models: PathBuf,
-    /// Input: synthesized curves (the filmstrip shows their first script).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub curves: PathBuf,
-    /// Output: the HTML report (self-contained).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub html: PathBuf,
+    pub io: Io,
     /// The runner's lock file, read (if present) for per-stage times in the provenance.
     #[arg(long, value_name = "FILE")]
     pub lock: Option<PathBuf>,
-    /// Output: the metrics table.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub metrics: PathBuf,
-    /// Output: the Markdown report.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub report: PathBuf,
     /// The report's title (the pipeline's name).
     #[arg(long, default_value = "reprise")]
     pub name: String,
@@ -197,13 +157,9 @@ pub struct Args {
     /// vertices × 2 sets; 4 bytes each).
     #[arg(long, default_value_t = 250_000_000)]
     pub mesh_reference_limit: usize,
-    /// Only validate the flags and exit.
-    #[arg(long)]
-    #[serde(skip)]
-    pub check: bool,
 }
 
-impl Args {
+impl Io {
     /// Every system's (id, answers, curves, reseeded curves) given on the command line.
     fn systems(&self) -> Vec<(&'static str, &Path, &Path, Option<&Path>)> {
         let mut v = vec![
@@ -228,40 +184,6 @@ impl Args {
         }
         v
     }
-
-    /// The inputs, by role, for the provenance.
-    fn inputs(&self) -> Vec<(String, &Path)> {
-        let mut v: Vec<(String, &Path)> = [
-            ("labeled_frames", &self.labeled_frames),
-            ("controls", &self.controls),
-            ("scales", &self.scales),
-            ("requests", &self.requests),
-            ("bridges", &self.bridges),
-            ("mg_nodes", &self.mg_nodes),
-            ("mg_edges", &self.mg_edges),
-            ("gplvm_fits", &self.gplvm_fits),
-            ("pca_errors", &self.pca_errors),
-            ("latents", &self.latents),
-            ("gplvm_models", &self.gplvm_models),
-            ("pca_models", &self.pca_models),
-            ("curves", &self.curves),
-        ]
-        .into_iter()
-        .map(|(r, p)| (r.to_string(), p.as_path()))
-        .collect();
-        if let Some(t) = &self.gplvm_trace {
-            v.push(("gplvm_trace".into(), t.as_path()));
-        }
-        for (id, a, c, r) in self.systems() {
-            let role = id.replace('-', "_");
-            v.push((format!("{role}_answers"), a));
-            v.push((format!("{role}_curves"), c));
-            if let Some(r) = r {
-                v.push((format!("{role}_reseeded"), r));
-            }
-        }
-        v
-    }
 }
 
 /// Runs the stage; returns the metric rows.
@@ -282,36 +204,34 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
                 .into(),
         ));
     }
-    if args.check {
+    if args.io.check {
         return Ok(None);
     }
-    let mut provenance = reprise_stagekit::provenance("evaluate", env!("CARGO_PKG_VERSION"), args);
-    for (role, p) in args.inputs() {
-        provenance = provenance.with_input(&role, p)?;
-    }
-    let labeled = LabeledFrames::read(&args.labeled_frames)?;
-    let rig = open_rig(&Controls::read(&args.controls)?, &labeled.frames.controls)?;
-    let reqs = transitions::read_requests(&args.requests)?;
+    let provenance = args.io.provenance(args)?;
+    let labeled = LabeledFrames::read(&args.io.labeled_frames)?;
+    let rig = open_rig(&Controls::read(&args.io.controls)?, &labeled.frames.controls)?;
+    let reqs = transitions::read_requests(&args.io.requests)?;
     let controls = &labeled.frames.controls;
     let mut systems = args
+        .io
         .systems()
         .into_iter()
         .map(|(id, a, c, r)| System::load(id, a, c, r, &reqs))
         .collect::<StageResult<Vec<_>>>()?;
-    let scale_rows = scales::read(&args.scales)?;
+    let scale_rows = scales::read(&args.io.scales)?;
     let weight = scales::mean_weights(&scale_rows, &labeled.frames.controls);
-    let (pca_controls, pcas) = pca::read_models(&args.pca_models)?;
+    let (pca_controls, pcas) = pca::read_models(&args.io.pca_models)?;
     if pca_controls != labeled.frames.controls {
         return Err(StageError::Input(format!(
             "{} and {} list different controls; rerun pca",
-            args.pca_models.display(),
-            args.labeled_frames.display()
+            args.io.pca_models.display(),
+            args.io.labeled_frames.display()
         )));
     }
     let maps = pcas
         .iter()
         .filter(|p| p.variant == pca::SCALED)
-        .map(|p| Ok((p.label.clone(), reprise_label_models::rig_map(p, &pca_controls, &scale_rows, &args.scales)?)))
+        .map(|p| Ok((p.label.clone(), reprise_label_models::rig_map(p, &pca_controls, &scale_rows, &args.io.scales)?)))
         .collect::<StageResult<Vec<_>>>()?;
     let training = Training::measure(&rig, &labeled, weight, &maps, args.mesh_reference_limit)?;
     let labels = training.labels.clone();
@@ -326,8 +246,8 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         arrival_frames: args.arrival_frames,
         discontinuity_window: args.discontinuity_window,
     };
-    let links = bridges::read(&args.bridges)?;
-    let on_bridge = starts_on_bridges(&reqs, &links, &gplvm::read_latents(&args.latents)?);
+    let links = bridges::read(&args.io.bridges)?;
+    let on_bridge = starts_on_bridges(&reqs, &links, &gplvm::read_latents(&args.io.latents)?);
     let rules = aggregate::Rules {
         on_bridge: &on_bridge,
         requests: &reqs,
@@ -355,13 +275,13 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     }
     out.extend(varieties);
     out.extend(aggregate::start_rows(&reqs, &pairs, &on_bridge));
-    let mg = motion_graph::read_graph(&args.mg_nodes, &args.mg_edges)?;
+    let mg = motion_graph::read_graph(&args.io.mg_nodes, &args.io.mg_edges)?;
     mg.check_window(args.window, "--window")?;
-    mg.check_frames(&labeled, &args.labeled_frames)?;
-    reprise_artifact::provenance::check_made_from(&args.mg_nodes, &provenance)?;
+    mg.check_frames(&labeled, &args.io.labeled_frames)?;
+    reprise_artifact::provenance::check_made_from(&args.io.mg_nodes, &provenance)?;
     let (nodes, edges) = (&mg.nodes, &mg.edges);
-    out.extend(transition_points(&links, &args.mg_edges, nodes, edges, &labels)?);
-    out.extend(model_quality(&args.gplvm_fits, &args.pca_errors)?);
+    out.extend(transition_points(&links, &args.io.mg_edges, nodes, edges, &labels)?);
+    out.extend(model_quality(&args.io.gplvm_fits, &args.io.pca_errors)?);
 
     let shown: Vec<(String, String)> = systems.iter().map(|s| (s.id.clone(), s.shown.clone())).collect();
     let ids: Vec<&str> = systems.iter().map(|s| s.id.as_str()).collect();
@@ -415,8 +335,8 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     };
     let page = figures::figures(inputs, &provenance)?;
     let html = html::page(&page, &out, &ctx);
-    write_metrics(&args.metrics, &out, &provenance)?;
-    for (path, text) in [(&args.report, md.as_str()), (&args.html, html.as_str())] {
+    write_metrics(&args.io.metrics, &out, &provenance)?;
+    for (path, text) in [(&args.io.report, md.as_str()), (&args.io.html, html.as_str())] {
         reprise_artifact::table::write_atomic(path, |f| {
             use std::io::Write as _;
             f.write_all(text.as_bytes()).map_err(|e| reprise_artifact::ArtifactError::io(path, e))
@@ -666,49 +586,6 @@ fn write_metrics(path: &Path, m: &[Metric], provenance: &reprise_artifact::Prove
     reprise_artifact::table::write(path, METRICS, cols, provenance, &[])?;
     Ok(())
 }
-
-/// What the stage reads and writes, for the runner's wiring by artifact
-/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
-pub const WIRING: reprise_stagekit::wiring::Wiring = {
-    use reprise_stagekit::wiring;
-    wiring::Wiring {
-        stage: "evaluate",
-        bin: "reprise-evaluate",
-        inputs: &[
-            wiring::required("labeled_frames", "labeled_frames.parquet"),
-            wiring::required("controls", "controls.parquet"),
-            wiring::required("scales", "scales.parquet"),
-            wiring::required("requests", "transition_requests.parquet"),
-            wiring::required("reprise_answers", "answers_reprise.parquet"),
-            wiring::required("reprise_curves", "transitions_reprise.parquet"),
-            wiring::required("reprise_reseeded", "transitions_reprise_reseeded.parquet"),
-            wiring::required("motion_graphs_answers", "answers_motion_graphs.parquet"),
-            wiring::required("motion_graphs_curves", "transitions_motion_graphs.parquet"),
-            wiring::required("motion_graphs_reseeded", "transitions_motion_graphs_reseeded.parquet"),
-            wiring::optional("mm_answers", "answers_motion_matching.parquet"),
-            wiring::optional("mm_curves", "transitions_motion_matching.parquet"),
-            wiring::optional("crossfade_answers", "answers_crossfade.parquet"),
-            wiring::optional("crossfade_curves", "transitions_crossfade.parquet"),
-            wiring::required("bridges", "bridges.parquet"),
-            wiring::required("mg_nodes", "mg_nodes.parquet"),
-            wiring::required("mg_edges", "mg_edges.parquet"),
-            wiring::required("gplvm_fits", "gplvm_fits.parquet"),
-            wiring::optional("gplvm_trace", "gplvm_trace.parquet"),
-            wiring::required("pca_errors", "pca_errors.parquet"),
-            wiring::required("latents", "gplvm_latents.parquet"),
-            wiring::required("gplvm_models", "gplvm_models.parquet"),
-            wiring::required("pca_models", "pca_models.parquet"),
-            wiring::required("curves", "curves.parquet"),
-        ],
-        outputs: &[
-            wiring::report("metrics", "metrics.parquet"),
-            wiring::report("report", "report.md"),
-            wiring::report("html", "index.html"),
-        ],
-        derived: &[("name", wiring::Derived::PipelineName), ("lock", wiring::Derived::LockFile)],
-        partition: wiring::Partition::Whole,
-    }
-};
 
 #[cfg(test)]
 mod tests {

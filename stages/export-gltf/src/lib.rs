@@ -12,41 +12,45 @@ use reprise_gltf::ExportClip;
 use reprise_stagekit::{StageError, StageResult};
 use serde::Serialize;
 
+reprise_stagekit::stage_io! {
+    stage: "export-gltf", bin: "reprise-export-gltf",
+    partition: Whole,
+    derived: [],
+    inputs {
+        /// Input: the synthesized curves.
+        curves: required "curves.parquet",
+        /// Input: the controls table (names the glTF character).
+        controls: required "controls.parquet",
+    }
+    outputs {
+        /// Output: the character with the new animations (.glb).
+        glb: artifact "exported.glb",
+    }
+}
+
 /// `reprise-export-gltf`: synthesized curves into a copy of the glTF character.
 #[derive(Debug, Clone, Parser, Serialize)]
 #[command(name = "reprise-export-gltf", version, about)]
 pub struct Args {
-    /// Input: the synthesized curves.
-    #[arg(long, value_name = "FILE")]
+    /// The stage's files.
+    #[command(flatten)]
     #[serde(skip)]
-    pub curves: PathBuf,
-    /// Input: the controls table (names the glTF character).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub controls: PathBuf,
-    /// Output: the character with the new animations (.glb).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub glb: PathBuf,
+    pub io: Io,
     /// Prefix of the new animations' names (then the script's name).
     #[arg(long, default_value = "reprise_")]
     pub prefix: String,
-    /// Only validate the flags and exit.
-    #[arg(long)]
-    #[serde(skip)]
-    pub check: bool,
 }
 
 /// Runs the stage; returns (animation name, frames) per exported clip.
 pub fn run(args: &Args) -> StageResult<Option<Vec<(String, usize)>>> {
-    if args.check {
+    if args.io.check {
         return Ok(None);
     }
-    let controls = Controls::read(&args.controls)?;
+    let controls = Controls::read(&args.io.controls)?;
     let RigRef::Gltf { path, blake3 } = &controls.rig else {
         return Err(StageError::Input(format!(
             "{}: the rig is not a glTF character ({:?}); only glTF characters can be exported into",
-            args.controls.display(),
+            args.io.controls.display(),
             controls.rig
         )));
     };
@@ -54,7 +58,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<(String, usize)>>> {
     if reprise_artifact::provenance::hash_file(&src)? != *blake3 {
         return Err(StageError::Input(format!("{}: changed since ingest read it; rerun ingest", src.display())));
     }
-    let c = curves::read(&args.curves)?;
+    let c = curves::read(&args.io.curves)?;
     let n = c.controls.len();
     let mut names: Vec<&str> = c.script.iter().map(String::as_str).collect();
     names.dedup();
@@ -70,23 +74,9 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<(String, usize)>>> {
             }
         })
         .collect();
-    reprise_gltf::export(&src, &args.glb, &clips).map_err(|e| StageError::Input(e.to_string()))?;
+    reprise_gltf::export(&src, &args.io.glb, &clips).map_err(|e| StageError::Input(e.to_string()))?;
     Ok(Some(clips.iter().map(|c| (c.name.clone(), c.values.len() / n.max(1))).collect()))
 }
-
-/// What the stage reads and writes, for the runner's wiring by artifact
-/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
-pub const WIRING: reprise_stagekit::wiring::Wiring = {
-    use reprise_stagekit::wiring;
-    wiring::Wiring {
-        stage: "export-gltf",
-        bin: "reprise-export-gltf",
-        inputs: &[wiring::required("curves", "curves.parquet"), wiring::required("controls", "controls.parquet")],
-        outputs: &[wiring::artifact("glb", "exported.glb")],
-        derived: &[],
-        partition: wiring::Partition::Whole,
-    }
-};
 
 #[cfg(test)]
 mod tests {
@@ -97,11 +87,8 @@ mod tests {
         let prov = reprise_stagekit::provenance("test", "0", &());
         Controls { controls: vec![], rig }.write(&controls, &prov).unwrap();
         Args {
-            curves: dir.join("curves.parquet"),
-            controls,
-            glb: dir.join("out.glb"),
+            io: crate::Io { curves: dir.join("curves.parquet"), controls, glb: dir.join("out.glb"), check: false },
             prefix: "r_".into(),
-            check: false,
         }
     }
 
@@ -114,7 +101,7 @@ mod tests {
         let e = run(&a).unwrap_err();
         assert_eq!(e.code(), reprise_stagekit::exit::INPUT);
         assert!(e.to_string().contains("controls.parquet: the rig is not a glTF character"), "{e}");
-        assert!(!a.glb.exists());
+        assert!(!a.io.glb.exists());
     }
 
     /// Catalogue: a character file edited since ingest read it is refused (its animations

@@ -88,7 +88,7 @@ pub(crate) struct Checker<'a> {
 impl<'a> Checker<'a> {
     /// Reads the PCA models, scales and rig the flags name.
     pub(crate) fn open(args: &Args, labeled: &'a LabeledFrames) -> StageResult<Self> {
-        let (Some(pm), Some(sc), Some(ct)) = (&args.pca_models, &args.scales, &args.controls) else {
+        let (Some(pm), Some(sc), Some(ct)) = (&args.io.pca_models, &args.io.scales, &args.io.controls) else {
             return Err(StageError::Config("the held-out check needs --pca-models, --scales and --controls".into()));
         };
         let (pca_controls, pcas) = pca::read_models(pm)?;
@@ -96,7 +96,7 @@ impl<'a> Checker<'a> {
             return Err(StageError::Input(format!(
                 "{} and {} list different controls; rerun pca",
                 pm.display(),
-                args.labeled_frames.display()
+                args.io.labeled_frames.display()
             )));
         }
         let rig = reprise_stagekit::rig::open_rig(&Controls::read(ct)?, &labeled.frames.controls)?;

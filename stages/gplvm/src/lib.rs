@@ -14,7 +14,6 @@
 mod heldout;
 pub mod summary;
 
-use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Parser;
@@ -68,46 +67,42 @@ pub enum PathKind {
     Auto,
 }
 
+reprise_stagekit::stage_io! {
+    stage: "gplvm", bin: "reprise-gplvm",
+    partition: Label { by: "labeled_frames" },
+    derived: [],
+    inputs {
+        /// Input: per-frame PCA coordinates (the `scaled` variant is modelled).
+        coords: required "pca_coords.parquet",
+        /// Input: the labeled frames (frame rate; the held-out check's original poses).
+        labeled_frames: required "labeled_frames.parquet",
+        /// Input (held-out check only): the PCA models.
+        pca_models: optional "pca_models.parquet",
+        /// Input (held-out check only): the scales.
+        scales: optional "scales.parquet",
+        /// Input (held-out check only): the controls table, naming the rig.
+        controls: optional "controls.parquet",
+    }
+    outputs {
+        /// Output: latent points per frame.
+        latents: artifact "gplvm_latents.parquet",
+        /// Output: the models (hyperparameters, latents, K⁻¹Y, offsets).
+        models: artifact "gplvm_models.parquet",
+        /// Output: the optimisation trace.
+        trace: artifact "gplvm_trace.parquet",
+        /// Output: one summary row per label.
+        fits: artifact "gplvm_fits.parquet",
+    }
+}
+
 /// `reprise-gplvm`: one GPLVM per label.
 #[derive(Debug, Clone, Parser, Serialize)]
 #[command(name = "reprise-gplvm", version, about)]
 pub struct Args {
-    /// Input: per-frame PCA coordinates (the `scaled` variant is modelled).
-    #[arg(long, value_name = "FILE")]
+    /// The stage's files.
+    #[command(flatten)]
     #[serde(skip)]
-    pub coords: PathBuf,
-    /// Input: the labeled frames (frame rate; the held-out check's original poses).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub labeled_frames: PathBuf,
-    /// Input (held-out check only): the PCA models.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub pca_models: Option<PathBuf>,
-    /// Input (held-out check only): the scales.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub scales: Option<PathBuf>,
-    /// Input (held-out check only): the controls table, naming the rig.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub controls: Option<PathBuf>,
-    /// Output: latent points per frame.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub latents: PathBuf,
-    /// Output: the models (hyperparameters, latents, K⁻¹Y, offsets).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub models: PathBuf,
-    /// Output: the optimisation trace.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub trace: PathBuf,
-    /// Output: one summary row per label.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub fits: PathBuf,
+    pub io: Io,
 
     /// Latent dimension q (the paper: 3).
     #[arg(long, default_value_t = 3)]
@@ -225,14 +220,6 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     #[serde(skip)]
     pub threads: usize,
-    /// Only this label (the runner's partitioned run): its rows only are written.
-    #[arg(long, value_name = "LABEL")]
-    #[serde(skip)]
-    pub partition: Option<String>,
-    /// Only validate the flags and exit.
-    #[arg(long)]
-    #[serde(skip)]
-    pub check: bool,
 }
 
 impl Args {
@@ -335,7 +322,9 @@ impl Args {
         if let Some((_, msg)) = checks.iter().find(|(ok, _)| !ok) {
             return Err(StageError::Config((*msg).into()));
         }
-        if self.heldout_every >= 2 && (self.pca_models.is_none() || self.scales.is_none() || self.controls.is_none()) {
+        if self.heldout_every >= 2
+            && (self.io.pca_models.is_none() || self.io.scales.is_none() || self.io.controls.is_none())
+        {
             return Err(StageError::Config(
                 "--heldout-every needs --pca-models, --scales and --controls (to reconstruct poses and evaluate meshes)"
                     .into(),
@@ -465,21 +454,14 @@ pub(crate) fn fit_label(data: &LabelData, config: &FitConfig, bar: &reprise_stag
 pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
     use reprise_stagekit::wiring;
     args.validate()?;
-    if args.check {
+    if args.io.check {
         return Ok(None);
     }
-    let mut provenance = reprise_stagekit::provenance("gplvm", env!("CARGO_PKG_VERSION"), args)
-        .with_input("coords", &args.coords)?
-        .with_input("labeled_frames", &args.labeled_frames)?;
-    for (role, p) in [("pca_models", &args.pca_models), ("scales", &args.scales), ("controls", &args.controls)] {
-        if let Some(p) = p {
-            provenance = provenance.with_input(role, p)?;
-        }
-    }
-    let coords = pca::read_coords(&args.coords)?;
-    let labeled = LabeledFrames::read(&args.labeled_frames)?;
-    let labels = gather(&coords, labeled.frames.fps, &args.coords)?;
-    let mut labels = wiring::only_partition(labels, |l| &l.label, args.partition.as_deref(), &args.coords)?;
+    let provenance = args.io.provenance(args)?;
+    let coords = pca::read_coords(&args.io.coords)?;
+    let labeled = LabeledFrames::read(&args.io.labeled_frames)?;
+    let labels = gather(&coords, labeled.frames.fps, &args.io.coords)?;
+    let mut labels = wiring::only_partition(labels, |l| &l.label, args.io.partition.as_deref(), &args.io.coords)?;
     let config = args.fit_config();
     let checker = (args.heldout_every >= 2).then(|| heldout::Checker::open(args, &labeled)).transpose()?;
     // Largest first, so that two workers finish together.
@@ -586,34 +568,9 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
         });
         summaries.push(summary.clone());
     }
-    gplvm::write_latents(&args.latents, &latents, &provenance)?;
-    gplvm::write_models(&args.models, &models, &provenance)?;
-    gplvm::write_trace(&args.trace, &trace, &provenance)?;
-    gplvm::write_fits(&args.fits, &summaries, &provenance)?;
+    gplvm::write_latents(&args.io.latents, &latents, &provenance)?;
+    gplvm::write_models(&args.io.models, &models, &provenance)?;
+    gplvm::write_trace(&args.io.trace, &trace, &provenance)?;
+    gplvm::write_fits(&args.io.fits, &summaries, &provenance)?;
     Ok(Some(summaries))
 }
-
-/// What the stage reads and writes, for the runner's wiring by artifact
-/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
-pub const WIRING: reprise_stagekit::wiring::Wiring = {
-    use reprise_stagekit::wiring;
-    wiring::Wiring {
-        stage: "gplvm",
-        bin: "reprise-gplvm",
-        inputs: &[
-            wiring::required("coords", "pca_coords.parquet"),
-            wiring::required("labeled_frames", "labeled_frames.parquet"),
-            wiring::optional("pca_models", "pca_models.parquet"),
-            wiring::optional("scales", "scales.parquet"),
-            wiring::optional("controls", "controls.parquet"),
-        ],
-        outputs: &[
-            wiring::artifact("latents", "gplvm_latents.parquet"),
-            wiring::artifact("models", "gplvm_models.parquet"),
-            wiring::artifact("trace", "gplvm_trace.parquet"),
-            wiring::artifact("fits", "gplvm_fits.parquet"),
-        ],
-        derived: &[],
-        partition: wiring::Partition::Label { by: "labeled_frames" },
-    }
-};

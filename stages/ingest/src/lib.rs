@@ -40,23 +40,37 @@ pub enum Layout {
     Long,
 }
 
+reprise_stagekit::stage_io! {
+    stage: "ingest", bin: "reprise-ingest",
+    partition: Whole,
+    derived: [],
+    inputs {
+        /// Input: a curve table (.csv or .parquet). Give this or --generate.
+        curves: optional_source "a curve table (CSV or Parquet)",
+        /// Input: a glTF 2.0 character (.glb/.gltf): each named animation becomes a clip; its skins and morph targets are the rig.
+        gltf: optional_source "a glTF character (.glb/.gltf)",
+        /// Input: BVH motion-capture files, the flag repeated per file (one clip per file, named
+        /// by its stem; the files must share one skeleton, which becomes the rig).
+        bvh: sources "BVH takes of one skeleton (a file, a list or a glob)",
+    }
+    outputs {
+        /// Output: the frame table.
+        frames: artifact "frames.parquet",
+        /// Output: the controls table.
+        controls: artifact "controls.parquet",
+        /// Output: the clips table.
+        clips: artifact "clips.parquet",
+    }
+}
+
 /// `reprise-ingest`: sources to frames, controls and clips.
 #[derive(Debug, Clone, Parser, Serialize)]
 #[command(name = "reprise-ingest", version, about)]
 pub struct Args {
-    /// Input: a curve table (.csv or .parquet). Give this or --generate.
-    #[arg(long, value_name = "FILE")]
+    /// The stage's files.
+    #[command(flatten)]
     #[serde(skip)]
-    pub curves: Option<PathBuf>,
-    /// Input: a glTF 2.0 character (.glb/.gltf): each named animation becomes a clip; its skins and morph targets are the rig.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub gltf: Option<PathBuf>,
-    /// Input: BVH motion-capture files, the flag repeated per file (one clip per file, named
-    /// by its stem; the files must share one skeleton, which becomes the rig).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub bvh: Vec<PathBuf>,
+    pub io: Io,
     /// Run a built-in generator instead of reading a file.
     #[arg(long, value_enum)]
     pub generate: Option<Generator>,
@@ -102,35 +116,19 @@ pub struct Args {
     /// comma-separated) speaking reprise's Arrow IPC protocol (docs/inputs.md).
     #[arg(long, value_delimiter = ',', value_name = "CMD")]
     pub external_rig: Vec<String>,
-    /// Output: the frame table.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub frames: PathBuf,
-    /// Output: the controls table.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub controls: PathBuf,
-    /// Output: the clips table.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub clips: PathBuf,
-    /// Only validate the flags and exit.
-    #[arg(long)]
-    #[serde(skip)]
-    pub check: bool,
 }
 
 impl Args {
     /// The one source the flags name.
     fn source(&self) -> StageResult<Source<'_>> {
         let mut given: Vec<Source<'_>> = Vec::new();
-        if let Some(p) = &self.curves {
+        if let Some(p) = &self.io.curves {
             given.push(Source::Curves(p));
         }
-        if !self.bvh.is_empty() {
-            given.push(Source::Bvh(&self.bvh));
+        if !self.io.bvh.is_empty() {
+            given.push(Source::Bvh(&self.io.bvh));
         }
-        if let Some(p) = &self.gltf {
+        if let Some(p) = &self.io.gltf {
             given.push(Source::Gltf(p));
         }
         if let Some(g) = self.generate {
@@ -206,36 +204,29 @@ pub struct Summary {
 /// Runs the stage (or only validates, with `--check`).
 pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     args.validate()?;
-    if args.check {
+    if args.io.check {
         return Ok(None);
     }
-    let mut provenance = reprise_stagekit::provenance("ingest", env!("CARGO_PKG_VERSION"), args);
+    let provenance = args.io.provenance(args)?;
+    // The imported rig is named by its source's content hash (the first file's, for
+    // several BVH takes).
+    let source_hash = || {
+        let inputs = args.io.inputs();
+        inputs.first().map(|(role, _)| provenance.inputs[role].blake3.clone()).unwrap_or_default()
+    };
     let (frames, controls, clips) = match args.source()? {
         Source::Generate(Generator::DragonFace) => dragon::generate(args.seed, args.corpus_scale),
-        Source::Curves(path) => {
-            provenance = provenance.with_input("curves", path)?;
-            from_table(args, path)?
-        }
+        Source::Curves(path) => from_table(args, path)?,
         Source::Bvh(paths) => {
-            let names: Vec<String> = match paths {
-                [_] => vec!["bvh".to_string()],
-                _ => (0..paths.len()).map(|i| format!("bvh[{i}]")).collect(),
-            };
-            for (name, path) in names.iter().zip(paths) {
-                provenance = provenance.with_input(name, path)?;
-            }
-            let hash = provenance.inputs[&names[0]].blake3.clone();
-            imported::bvh(paths, args.fps, args.max_frames, hash).map_err(StageError::Input)?
+            imported::bvh(paths, args.fps, args.max_frames, source_hash()).map_err(StageError::Input)?
         }
         Source::Gltf(path) => {
-            provenance = provenance.with_input("gltf", path)?;
-            let hash = provenance.inputs["gltf"].blake3.clone();
-            imported::gltf(path, args.fps, args.max_frames, hash).map_err(StageError::Input)?
+            imported::gltf(path, args.fps, args.max_frames, source_hash()).map_err(StageError::Input)?
         }
     };
-    frames.write(&args.frames, &provenance)?;
-    controls.write(&args.controls, &provenance)?;
-    clips::write(&args.clips, &clips, &provenance)?;
+    frames.write(&args.io.frames, &provenance)?;
+    controls.write(&args.io.controls, &provenance)?;
+    clips::write(&args.io.clips, &clips, &provenance)?;
     Ok(Some(Summary { frames: frames.rows(), controls: controls.controls.len(), clips: clips.len() }))
 }
 
@@ -296,28 +287,6 @@ fn from_table(args: &Args, path: &std::path::Path) -> StageResult<(Frames, Contr
     };
     Ok((frames, Controls { controls, rig }, clips))
 }
-
-/// What the stage reads and writes, for the runner's wiring by artifact
-/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
-pub const WIRING: reprise_stagekit::wiring::Wiring = {
-    use reprise_stagekit::wiring;
-    wiring::Wiring {
-        stage: "ingest",
-        bin: "reprise-ingest",
-        inputs: &[
-            wiring::optional_source("curves", "a curve table (CSV or Parquet)"),
-            wiring::optional_source("gltf", "a glTF character (.glb/.gltf)"),
-            wiring::optional_source("bvh", "BVH takes of one skeleton (a file, a list or a glob)"),
-        ],
-        outputs: &[
-            wiring::artifact("frames", "frames.parquet"),
-            wiring::artifact("controls", "controls.parquet"),
-            wiring::artifact("clips", "clips.parquet"),
-        ],
-        derived: &[],
-        partition: wiring::Partition::Whole,
-    }
-};
 
 #[cfg(test)]
 mod tests;

@@ -6,7 +6,7 @@ use reprise_artifact::clips;
 use reprise_artifact::controls::{Controls, RigRef};
 use reprise_artifact::frames::Frames;
 
-use crate::{run, Args, Layout};
+use crate::{run, Args, Io, Layout};
 
 mod generative;
 
@@ -14,9 +14,15 @@ pub(super) fn args(dir: &Path, name: &str, text: &str) -> Args {
     let curves = dir.join(name);
     std::fs::write(&curves, text).unwrap();
     Args {
-        curves: Some(curves),
-        bvh: vec![],
-        gltf: None,
+        io: Io {
+            curves: Some(curves),
+            bvh: vec![],
+            gltf: None,
+            frames: dir.join("frames.parquet"),
+            controls: dir.join("controls.parquet"),
+            clips: dir.join("clips.parquet"),
+            check: false,
+        },
         generate: None,
         seed: 7,
         corpus_scale: 1.0,
@@ -29,15 +35,11 @@ pub(super) fn args(dir: &Path, name: &str, text: &str) -> Args {
         time_column: None,
         ignore_columns: vec![],
         external_rig: vec![],
-        frames: dir.join("frames.parquet"),
-        controls: dir.join("controls.parquet"),
-        clips: dir.join("clips.parquet"),
-        check: false,
     }
 }
 
 fn outputs(a: &Args) -> [&PathBuf; 3] {
-    [&a.frames, &a.controls, &a.clips]
+    [&a.io.frames, &a.io.controls, &a.io.clips]
 }
 
 #[test]
@@ -46,14 +48,14 @@ fn wide_csv_with_clips() {
     let a = args(dir.path(), "c.csv", "clip,frame,jaw,brow\nx,0,0,1\nx,1,0.5,1\ny,0,2,1\ny,1,3,1\ny,2,4,1\n");
     let s = run(&a).unwrap().unwrap();
     assert_eq!((s.frames, s.controls, s.clips), (5, 2, 2));
-    let f = Frames::read(&a.frames).unwrap();
+    let f = Frames::read(&a.io.frames).unwrap();
     assert_eq!(f.controls, vec!["jaw", "brow"]);
     assert_eq!(f.row(3), &[3.0, 1.0]);
-    let c = Controls::read(&a.controls).unwrap();
+    let c = Controls::read(&a.io.controls).unwrap();
     assert_eq!(c.rig, RigRef::None);
     assert_eq!(c.controls.iter().map(|c| c.animated).collect::<Vec<_>>(), vec![true, false]);
     assert_eq!((c.controls[0].min, c.controls[0].max), (0.0, 4.0));
-    let cl = clips::read(&a.clips).unwrap();
+    let cl = clips::read(&a.io.clips).unwrap();
     assert_eq!(cl.iter().map(|c| c.frames).collect::<Vec<_>>(), vec![2, 3]);
 }
 
@@ -71,19 +73,19 @@ fn long_table_resampled_matches_wide() {
     }
     let a = args(dir.path(), "long.csv", &long);
     run(&a).unwrap();
-    let from_long = Frames::read(&a.frames).unwrap();
+    let from_long = Frames::read(&a.io.frames).unwrap();
     assert_eq!(from_long.rows(), 5);
     assert_eq!(from_long.controls, vec!["b", "a"]);
     let sub = dir.path().join("w");
     std::fs::create_dir(&sub).unwrap();
     let w = args(&sub, "long.csv", &wide);
     run(&w).unwrap();
-    let from_wide = Frames::read(&w.frames).unwrap();
+    let from_wide = Frames::read(&w.io.frames).unwrap();
     for r in 0..5 {
         assert_eq!(from_long.row(r)[0], from_wide.row(r)[1]);
         assert!((from_long.row(r)[1] - from_wide.row(r)[0]).abs() < 1e-12);
     }
-    assert!((clips::read(&a.clips).unwrap()[0].source_fps - 48.0).abs() < 1e-6);
+    assert!((clips::read(&a.io.clips).unwrap()[0].source_fps - 48.0).abs() < 1e-6);
 }
 
 #[test]
@@ -93,7 +95,7 @@ fn source_fps_converts_frame_numbers() {
     a.source_fps = Some(48.0);
     a.clip = Some("take".into());
     run(&a).unwrap();
-    let f = Frames::read(&a.frames).unwrap();
+    let f = Frames::read(&a.io.frames).unwrap();
     assert_eq!(f.column(0), vec![0.0, 2.0, 4.0]);
     assert_eq!(f.clip[0], "take");
 }
@@ -102,12 +104,12 @@ fn source_fps_converts_frame_numbers() {
 fn dragon_face_generates_the_corpus() {
     let dir = tempfile::tempdir().unwrap();
     let mut a = args(dir.path(), "unused.csv", "");
-    a.curves = None;
+    a.io.curves = None;
     a.generate = Some(crate::Generator::DragonFace);
     let s = run(&a).unwrap().unwrap();
     assert!((700..=800).contains(&s.controls), "{}", s.controls);
     assert!(s.frames > 3745, "good frames plus bad takes, got {}", s.frames);
-    let c = Controls::read(&a.controls).unwrap();
+    let c = Controls::read(&a.io.controls).unwrap();
     assert!(matches!(c.rig, RigRef::DragonFace { seed: 7, .. }));
     assert!(c.controls.iter().any(|c| !c.animated), "some controls never move");
     assert!(c.controls.iter().any(|c| c.group == "eyes"));
@@ -126,7 +128,7 @@ fn live_link_face_csv() {
     }
     let dir = tempfile::tempdir().unwrap();
     let mut a = args(dir.path(), "unused.csv", "");
-    a.curves = Some(path);
+    a.io.curves = Some(path);
     a.time_column = Some("Timecode".into());
     a.ignore_columns = vec!["BlendShapeCount".into()];
     a.source_fps = Some(60.0);
@@ -134,9 +136,9 @@ fn live_link_face_csv() {
     assert_eq!(s.controls, 61);
     // 328 frames at 60 fps span 327/60 s; at 24 fps that is floor(130.8) + 1 frames.
     assert_eq!(s.frames, 131);
-    let cl = clips::read(&a.clips).unwrap();
+    let cl = clips::read(&a.io.clips).unwrap();
     assert!((cl[0].source_fps - 60.0).abs() < 0.5, "{}", cl[0].source_fps);
-    let f = Frames::read(&a.frames).unwrap();
+    let f = Frames::read(&a.io.frames).unwrap();
     let jaw = f.controls.iter().position(|c| c == "JawOpen").unwrap();
     assert!(f.column(jaw).iter().all(|v| (0.0..=1.0).contains(v)));
 }
@@ -215,7 +217,7 @@ fn huge_fps_is_refused() {
 fn generate_refuses_another_fps() {
     let dir = tempfile::tempdir().unwrap();
     let mut a = args(dir.path(), "unused.csv", "");
-    a.curves = None;
+    a.io.curves = None;
     a.generate = Some(crate::Generator::DragonFace);
     a.fps = 1e6;
     let err = run(&a).unwrap_err();
@@ -228,7 +230,7 @@ fn generate_refuses_another_fps() {
 fn missing_file_is_named() {
     let dir = tempfile::tempdir().unwrap();
     let mut a = args(dir.path(), "c.csv", "frame,v\n0,1\n");
-    a.curves = Some(dir.path().join("nowhere.csv"));
+    a.io.curves = Some(dir.path().join("nowhere.csv"));
     let err = run(&a).unwrap_err().to_string();
     assert!(err.contains("nowhere.csv"), "{err}");
 }
@@ -248,7 +250,7 @@ fn parquet_curves_with_bad_values_name_the_row() {
     )
     .unwrap();
     let mut a = args(dir.path(), "unused.csv", "");
-    a.curves = Some(path);
+    a.io.curves = Some(path);
     let err = run(&a).unwrap_err().to_string();
     assert!(err.contains("c.parquet") && err.contains("column `jaw`, row 1"), "{err}");
 }
@@ -263,8 +265,8 @@ fn flags_are_validated() {
     a.fps = 0.0;
     assert_eq!(run(&a).unwrap_err().code(), reprise_stagekit::exit::CONFIG);
     a.fps = 24.0;
-    a.check = true;
-    a.curves = Some(dir.path().join("not-yet.csv"));
+    a.io.check = true;
+    a.io.curves = Some(dir.path().join("not-yet.csv"));
     assert!(run(&a).unwrap().is_none());
 }
 
@@ -288,34 +290,34 @@ fn take(frames: usize, step: f64, bone: f64) -> String {
 fn several_bvh_takes_are_one_source() {
     let dir = tempfile::tempdir().unwrap();
     let mut a = args(dir.path(), "unused.csv", "a\n1\n");
-    a.curves = None;
+    a.io.curves = None;
     a.fps = 10.0;
     for (name, frames, step) in [("walk.bvh", 4, 10.0), ("turn.bvh", 6, -5.0)] {
         std::fs::write(dir.path().join(name), take(frames, step, 1.0)).unwrap();
-        a.bvh.push(dir.path().join(name));
+        a.io.bvh.push(dir.path().join(name));
     }
     let s = run(&a).unwrap().unwrap();
     assert_eq!((s.frames, s.clips), (10, 2));
-    let cl = clips::read(&a.clips).unwrap();
+    let cl = clips::read(&a.io.clips).unwrap();
     assert_eq!(cl.iter().map(|c| (c.clip.as_str(), c.frames)).collect::<Vec<_>>(), [("walk", 4), ("turn", 6)]);
     assert!(cl[1].source.ends_with("turn.bvh"), "{}", cl[1].source);
-    let c = Controls::read(&a.controls).unwrap();
+    let c = Controls::read(&a.io.controls).unwrap();
     let rz = c.controls.iter().find(|c| c.name == "J.rz").unwrap();
     assert!((rz.min + 25f64.to_radians()).abs() < 1e-9 && (rz.max - 30f64.to_radians()).abs() < 1e-9, "{rz:?}");
     assert!(matches!(&c.rig, RigRef::Bvh { path, .. } if path.ends_with("walk.bvh")), "{:?}", c.rig);
-    assert_eq!(Frames::read(&a.frames).unwrap().rows(), 10);
-    let meta = reprise_artifact::table::metadata_of(&a.frames).unwrap();
+    assert_eq!(Frames::read(&a.io.frames).unwrap().rows(), 10);
+    let meta = reprise_artifact::table::metadata_of(&a.io.frames).unwrap();
     let prov = &meta[reprise_artifact::provenance::KEY_INPUTS];
     assert!(prov.contains("bvh[0]") && prov.contains("bvh[1]"), "{prov}");
 
     std::fs::write(dir.path().join("other.bvh"), take(3, 1.0, 2.0)).unwrap();
-    a.bvh.push(dir.path().join("other.bvh"));
+    a.io.bvh.push(dir.path().join("other.bvh"));
     let e = run(&a).unwrap_err().to_string();
     assert!(e.contains("other.bvh: its skeleton differs from") && e.contains("walk.bvh"), "{e}");
-    a.bvh.pop();
+    a.io.bvh.pop();
     std::fs::create_dir(dir.path().join("b")).unwrap();
     std::fs::write(dir.path().join("b/walk.bvh"), take(3, 1.0, 1.0)).unwrap();
-    a.bvh.push(dir.path().join("b/walk.bvh"));
+    a.io.bvh.push(dir.path().join("b/walk.bvh"));
     let e = run(&a).unwrap_err().to_string();
     assert!(e.contains("two takes named `walk`"), "{e}");
 }

@@ -5,8 +5,6 @@
 mod assign;
 mod labels_file;
 
-use std::path::PathBuf;
-
 use clap::Parser;
 use globset::Glob;
 use reprise_artifact::controls::Controls;
@@ -15,30 +13,34 @@ use reprise_artifact::segments::{self, Segment};
 use reprise_stagekit::{StageError, StageResult};
 use serde::Serialize;
 
+reprise_stagekit::stage_io! {
+    stage: "label", bin: "reprise-label",
+    partition: Whole,
+    derived: [],
+    inputs {
+        /// Input: the frame table from ingest.
+        frames: required "frames.parquet",
+        /// Input: the controls table from ingest (needed for --mask-group).
+        controls: optional "controls.parquet",
+        /// Input: the labels file (.toml with rules, ranges and exclusions, or .csv clip,start,end,label).
+        labels: source "a labels file (TOML or CSV)",
+    }
+    outputs {
+        /// Output: the segments table.
+        segments: artifact "segments.parquet",
+        /// Output: the labeled frame table.
+        labeled_frames: artifact "labeled_frames.parquet",
+    }
+}
+
 /// `reprise-label`: labels, exclusions and control masks to segments and labeled frames.
 #[derive(Debug, Clone, Parser, Serialize)]
 #[command(name = "reprise-label", version, about)]
 pub struct Args {
-    /// Input: the frame table from ingest.
-    #[arg(long, value_name = "FILE")]
+    /// The stage's files.
+    #[command(flatten)]
     #[serde(skip)]
-    pub frames: PathBuf,
-    /// Input: the controls table from ingest (needed for --mask-group).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub controls: Option<PathBuf>,
-    /// Input: the labels file (.toml with rules, ranges and exclusions, or .csv clip,start,end,label).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub labels: PathBuf,
-    /// Output: the segments table.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub segments: PathBuf,
-    /// Output: the labeled frame table.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub labeled_frames: PathBuf,
+    pub io: Io,
     /// Controls to leave out of every later model, by name glob (comma-separated); each must match a control.
     #[arg(long, value_delimiter = ',')]
     pub mask: Vec<String>,
@@ -48,10 +50,6 @@ pub struct Args {
     /// Segments shorter than this many frames are dropped (and counted in the summary).
     #[arg(long, default_value_t = 1)]
     pub min_segment_length: usize,
-    /// Only validate the flags and exit.
-    #[arg(long)]
-    #[serde(skip)]
-    pub check: bool,
 }
 
 /// Per-label counts.
@@ -118,7 +116,7 @@ impl std::fmt::Display for Summary {
 
 impl Args {
     fn validate(&self) -> StageResult<()> {
-        if !self.mask_group.is_empty() && self.controls.is_none() {
+        if !self.mask_group.is_empty() && self.io.controls.is_none() {
             return Err(StageError::Config(
                 "--mask-group needs --controls (the controls table names the groups)".into(),
             ));
@@ -144,7 +142,7 @@ fn masked(args: &Args, frames: &Frames) -> StageResult<Vec<String>> {
         }
         out.extend(hits.into_iter().cloned());
     }
-    if let Some(path) = args.controls.as_ref().filter(|_| !args.mask_group.is_empty()) {
+    if let Some(path) = args.io.controls.as_ref().filter(|_| !args.mask_group.is_empty()) {
         let controls = Controls::read(path)?;
         for group in &args.mask_group {
             let hits: Vec<&str> =
@@ -166,22 +164,17 @@ fn masked(args: &Args, frames: &Frames) -> StageResult<Vec<String>> {
 /// Runs the stage (or only validates, with `--check`).
 pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     args.validate()?;
-    if args.check {
+    if args.io.check {
         return Ok(None);
     }
-    let labels = labels_file::LabelsFile::read(&args.labels)?;
-    let frames = Frames::read(&args.frames)?;
-    let mut provenance = reprise_stagekit::provenance("label", env!("CARGO_PKG_VERSION"), args)
-        .with_input("frames", &args.frames)?
-        .with_input("labels", &args.labels)?;
-    if let Some(c) = &args.controls {
-        provenance = provenance.with_input("controls", c)?;
-    }
+    let labels = labels_file::LabelsFile::read(&args.io.labels)?;
+    let frames = Frames::read(&args.io.frames)?;
+    let provenance = args.io.provenance(args)?;
     let masked = masked(args, &frames)?;
-    let assignment = assign::assign(&frames, &labels, &args.labels, args.min_segment_length)?;
+    let assignment = assign::assign(&frames, &labels, &args.io.labels, args.min_segment_length)?;
     let labeled = labeled_frames(&frames, &assignment.segments, &assignment.rows, masked.clone());
-    segments::write(&args.segments, &assignment.segments, &provenance)?;
-    labeled.write(&args.labeled_frames, &provenance)?;
+    segments::write(&args.io.segments, &assignment.segments, &provenance)?;
+    labeled.write(&args.io.labeled_frames, &provenance)?;
     let labels_file = labels;
     let labels = labels_file
         .labels
@@ -245,27 +238,6 @@ fn labeled_frames(frames: &Frames, segments: &[Segment], rows: &[Vec<usize>], ma
     }
     LabeledFrames { segment_id, label, frames: out, masked_controls: masked }
 }
-
-/// What the stage reads and writes, for the runner's wiring by artifact
-/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
-pub const WIRING: reprise_stagekit::wiring::Wiring = {
-    use reprise_stagekit::wiring;
-    wiring::Wiring {
-        stage: "label",
-        bin: "reprise-label",
-        inputs: &[
-            wiring::required("frames", "frames.parquet"),
-            wiring::optional("controls", "controls.parquet"),
-            wiring::source("labels", "a labels file (TOML or CSV)"),
-        ],
-        outputs: &[
-            wiring::artifact("segments", "segments.parquet"),
-            wiring::artifact("labeled_frames", "labeled_frames.parquet"),
-        ],
-        derived: &[],
-        partition: wiring::Partition::Whole,
-    }
-};
 
 #[cfg(test)]
 mod tests;

@@ -35,15 +35,17 @@ fn args(dir: &Path, labels: &str, ext: &str) -> Args {
     let labels_path = dir.join(format!("labels.{ext}"));
     std::fs::write(&labels_path, labels).unwrap();
     Args {
-        frames: write_frames(dir),
-        controls: None,
-        labels: labels_path,
-        segments: dir.join("segments.parquet"),
-        labeled_frames: dir.join("labeled.parquet"),
+        io: crate::Io {
+            frames: write_frames(dir),
+            controls: None,
+            labels: labels_path,
+            segments: dir.join("segments.parquet"),
+            labeled_frames: dir.join("labeled.parquet"),
+            check: false,
+        },
         mask: vec![],
         mask_group: vec![],
         min_segment_length: 1,
-        check: false,
     }
 }
 
@@ -72,7 +74,7 @@ fn rules_ranges_and_exclusions_make_segments() {
     let mut a = args(dir.path(), RULES, "toml");
     a.mask = vec!["eye_*".into()];
     let summary = run(&a).unwrap().unwrap();
-    let segs = segments::read(&a.segments).unwrap();
+    let segs = segments::read(&a.io.segments).unwrap();
     let got: Vec<(String, String, i64, i64)> =
         segs.iter().map(|s| (s.label.clone(), s.clip.clone(), s.start, s.end)).collect();
     let want = [
@@ -85,7 +87,7 @@ fn rules_ranges_and_exclusions_make_segments() {
     assert_eq!(got, want.map(|(l, c, s, e)| (l.into(), c.into(), s, e)).to_vec());
     assert_eq!(summary.excluded_frames, 2);
     assert_eq!(summary.labels[0].frames, 14);
-    let labeled = LabeledFrames::read(&a.labeled_frames).unwrap();
+    let labeled = LabeledFrames::read(&a.io.labeled_frames).unwrap();
     assert_eq!(labeled.frames.controls, vec!["jaw".to_string()]);
     assert_eq!(labeled.masked_controls, vec!["eye_L".to_string()]);
     assert_eq!(labeled.frames.rows(), 23);
@@ -94,7 +96,7 @@ fn rules_ranges_and_exclusions_make_segments() {
     assert_eq!((labeled.frames.frame[first], labeled.frames.values[first]), (6, 6.0));
     // Running twice in one process gives the same outputs.
     run(&a).unwrap();
-    assert_eq!(segments::read(&a.segments).unwrap(), segs);
+    assert_eq!(segments::read(&a.io.segments).unwrap(), segs);
 }
 
 #[test]
@@ -128,7 +130,7 @@ macro_rules! bad_labels {
             assert!(msg.contains(&format!("labels.{}", $ext)), "{msg}");
             $(assert!(msg.contains($needle), "expected `{}` in: {msg}", $needle);)+
             assert_eq!(err.code(), reprise_stagekit::exit::INPUT);
-            assert!(!a.segments.exists() && !a.labeled_frames.exists());
+            assert!(!a.io.segments.exists() && !a.io.labeled_frames.exists());
         }
     )*};
 }
@@ -178,8 +180,8 @@ fn mask_matching_nothing_is_a_config_error() {
 fn check_validates_without_reading() {
     let dir = tempfile::tempdir().unwrap();
     let mut a = args(dir.path(), RULES, "toml");
-    a.frames = dir.path().join("not-yet-written.parquet");
-    a.check = true;
+    a.io.frames = dir.path().join("not-yet-written.parquet");
+    a.io.check = true;
     assert!(run(&a).unwrap().is_none());
     a.mask_group = vec!["eyes".into()];
     assert!(run(&a).unwrap_err().to_string().contains("--mask-group needs --controls"));

@@ -7,8 +7,6 @@
 //! `rho` below the threshold become transitions; the graph is pruned to its largest
 //! strongly connected component.
 
-use std::path::PathBuf;
-
 use clap::{Parser, ValueEnum};
 use rayon::prelude::*;
 use reprise_artifact::frames::LabeledFrames;
@@ -33,26 +31,32 @@ pub enum Threshold {
     PerPair,
 }
 
+reprise_stagekit::stage_io! {
+    stage: "motion-graph", bin: "reprise-motion-graph",
+    partition: Whole,
+    derived: [],
+    inputs {
+        /// Input: the labeled frames.
+        labeled_frames: required "labeled_frames.parquet",
+        /// Input: the scales.
+        scales: required "scales.parquet",
+    }
+    outputs {
+        /// Output: the nodes.
+        nodes: artifact "mg_nodes.parquet",
+        /// Output: the edges.
+        edges: artifact "mg_edges.parquet",
+    }
+}
+
 /// `reprise-motion-graph`: the Motion Graphs baseline.
 #[derive(Debug, Clone, Parser, Serialize)]
 #[command(name = "reprise-motion-graph", version, about)]
 pub struct Args {
-    /// Input: the labeled frames.
-    #[arg(long, value_name = "FILE")]
+    /// The stage's files.
+    #[command(flatten)]
     #[serde(skip)]
-    pub labeled_frames: PathBuf,
-    /// Input: the scales.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub scales: PathBuf,
-    /// Output: the nodes.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub nodes: PathBuf,
-    /// Output: the edges.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub edges: PathBuf,
+    pub io: Io,
     /// Window and blend length k, frames.
     #[arg(long, default_value_t = 12)]
     pub window: usize,
@@ -74,10 +78,6 @@ pub struct Args {
     #[arg(long, default_value_t = 25_000_000)]
     #[serde(skip)]
     pub max_pair_cells: usize,
-    /// Only validate the flags and exit.
-    #[arg(long)]
-    #[serde(skip)]
-    pub check: bool,
 }
 
 /// The longest window accepted, frames (a transition's cost must fit the graph's costs).
@@ -104,7 +104,7 @@ pub struct Summary {
 /// from: no controls left (every one masked), or two motions whose distance surface would
 /// have more than `--max-pair-cells` entries (naming the longest motion).
 fn check_sizes(args: &Args, dim: usize, segs: &[(usize, usize)]) -> StageResult<()> {
-    let file = args.labeled_frames.display();
+    let file = args.io.labeled_frames.display();
     if dim == 0 {
         return Err(StageError::Input(format!(
             "{file}: no controls (all masked?): a motion graph compares poses by their controls"
@@ -136,15 +136,13 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
              --max-distance >= 0 (absolute)"
         )));
     }
-    if args.check {
+    if args.io.check {
         return Ok(None);
     }
-    let provenance = reprise_stagekit::provenance("motion-graph", env!("CARGO_PKG_VERSION"), args)
-        .with_input("labeled_frames", &args.labeled_frames)?
-        .with_input("scales", &args.scales)?;
-    let labeled = LabeledFrames::read(&args.labeled_frames)?;
-    let scale_rows = scales::read(&args.scales)?;
-    reprise_artifact::provenance::check_made_from(&args.scales, &provenance)?;
+    let provenance = args.io.provenance(args)?;
+    let labeled = LabeledFrames::read(&args.io.labeled_frames)?;
+    let scale_rows = scales::read(&args.io.scales)?;
+    reprise_artifact::provenance::check_made_from(&args.io.scales, &provenance)?;
     let controls = &labeled.frames.controls;
     let weight = scales::mean_weights(&scale_rows, &labeled.frames.controls);
     let dim = controls.len();
@@ -248,8 +246,8 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         per_label[i].1 += 1;
         per_label[i].2 += usize::from(a);
     }
-    motion_graph::write_nodes(&args.nodes, &nodes, k, &provenance)?;
-    motion_graph::write_edges(&args.edges, &edges, k, &provenance)?;
+    motion_graph::write_nodes(&args.io.nodes, &nodes, k, &provenance)?;
+    motion_graph::write_edges(&args.io.edges, &edges, k, &provenance)?;
     Ok(Some(Summary {
         frames: n,
         frames_in_scc: alive.iter().filter(|a| **a).count(),
@@ -259,20 +257,3 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         threshold,
     }))
 }
-
-/// What the stage reads and writes, for the runner's wiring by artifact
-/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
-pub const WIRING: reprise_stagekit::wiring::Wiring = {
-    use reprise_stagekit::wiring;
-    wiring::Wiring {
-        stage: "motion-graph",
-        bin: "reprise-motion-graph",
-        inputs: &[
-            wiring::required("labeled_frames", "labeled_frames.parquet"),
-            wiring::required("scales", "scales.parquet"),
-        ],
-        outputs: &[wiring::artifact("nodes", "mg_nodes.parquet"), wiring::artifact("edges", "mg_edges.parquet")],
-        derived: &[],
-        partition: wiring::Partition::Whole,
-    }
-};

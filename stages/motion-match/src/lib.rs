@@ -22,7 +22,6 @@
 //! unscales exactly.
 
 use std::collections::HashMap;
-use std::path::PathBuf;
 
 use clap::Parser;
 use rand::{Rng, SeedableRng};
@@ -38,38 +37,38 @@ use reprise_numerics::pca::{Pca, PcaParams};
 use reprise_stagekit::{StageError, StageResult};
 use serde::Serialize;
 
+reprise_stagekit::stage_io! {
+    stage: "motion-match", bin: "reprise-motion-match",
+    partition: Whole,
+    derived: [],
+    inputs {
+        /// Input: the labeled frames (the database).
+        labeled_frames: required "labeled_frames.parquet",
+        /// Input: the scales (the scaled control space).
+        scales: required "scales.parquet",
+        /// Input: the transition requests.
+        requests: required "transition_requests.parquet",
+    }
+    outputs {
+        /// Output: motion matching's answers.
+        mm_answers: artifact "answers_motion_matching.parquet",
+        /// Output: motion matching's curves.
+        mm_curves: artifact "transitions_motion_matching.parquet",
+        /// Output: the crossfade's answers.
+        crossfade_answers: artifact "answers_crossfade.parquet",
+        /// Output: the crossfade's curves.
+        crossfade_curves: artifact "transitions_crossfade.parquet",
+    }
+}
+
 /// `reprise-motion-match`: motion matching and crossfade answers to the benchmark.
 #[derive(Debug, Clone, Parser, Serialize)]
 #[command(name = "reprise-motion-match", version, about)]
 pub struct Args {
-    /// Input: the labeled frames (the database).
-    #[arg(long, value_name = "FILE")]
+    /// The stage's files.
+    #[command(flatten)]
     #[serde(skip)]
-    pub labeled_frames: PathBuf,
-    /// Input: the scales (the scaled control space).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub scales: PathBuf,
-    /// Input: the transition requests.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub requests: PathBuf,
-    /// Output: motion matching's answers.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub mm_answers: PathBuf,
-    /// Output: motion matching's curves.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub mm_curves: PathBuf,
-    /// Output: the crossfade's answers.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub crossfade_answers: PathBuf,
-    /// Output: the crossfade's curves.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub crossfade_curves: PathBuf,
+    pub io: Io,
     /// Principal coordinates of the scaled controls per feature time (q).
     #[arg(long, default_value_t = 8)]
     pub features: usize,
@@ -91,10 +90,6 @@ pub struct Args {
     /// Seed of the search timer's phase at each request (+ request id).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Only validate the flags and exit.
-    #[arg(long)]
-    #[serde(skip)]
-    pub check: bool,
 }
 
 /// What the stage answered: per request, (motion matching's, the crossfade's) answer.
@@ -141,7 +136,7 @@ impl Corpus {
         if !smallest.is_finite() {
             return Err(StageError::Input(format!(
                 "{}: no control has a positive scale weight (the mesh depends on none); rerun scale",
-                args.scales.display()
+                args.io.scales.display()
             )));
         }
         let weight: Vec<f64> = weight.iter().map(|&w| if w > 0.0 { w } else { 1e-3 * smallest }).collect();
@@ -164,7 +159,7 @@ impl Corpus {
         for (i, &(s, e)) in labeled.segment_runs().iter().enumerate() {
             segments[s..e].iter_mut().for_each(|v| *v = i as u32);
         }
-        let bad = |e: MatchError| StageError::Input(format!("{}: {e}", args.labeled_frames.display()));
+        let bad = |e: MatchError| StageError::Input(format!("{}: {e}", args.io.labeled_frames.display()));
         let db = Database::new(z.clone(), c, label_ids, &segments, labeled.frames.fps).map_err(bad)?;
         let params = PcaParams { variance: 1.0, min_components: 1, max_components: args.features };
         let pca = Pca::fit(&z, c, &params).map_err(|e| StageError::Input(format!("feature PCA: {e}")))?;
@@ -202,16 +197,13 @@ impl Corpus {
 /// Runs the stage; returns the requests with both systems' answers.
 pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     args.validate()?;
-    if args.check {
+    if args.io.check {
         return Ok(None);
     }
-    let provenance = reprise_stagekit::provenance("motion-match", env!("CARGO_PKG_VERSION"), args)
-        .with_input("labeled_frames", &args.labeled_frames)?
-        .with_input("scales", &args.scales)?
-        .with_input("requests", &args.requests)?;
-    let labeled = LabeledFrames::read(&args.labeled_frames)?;
-    let weight = scales::mean_weights(&scales::read(&args.scales)?, &labeled.frames.controls);
-    let reqs = transitions::read_requests(&args.requests)?;
+    let provenance = args.io.provenance(args)?;
+    let labeled = LabeledFrames::read(&args.io.labeled_frames)?;
+    let weight = scales::mean_weights(&scales::read(&args.io.scales)?, &labeled.frames.controls);
+    let reqs = transitions::read_requests(&args.io.requests)?;
     let corpus = Corpus::build(args, &labeled, weight)?;
     let fps = labeled.frames.fps;
     let timeout = (args.timeout * fps).ceil() as usize;
@@ -221,8 +213,8 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     let interval = settings.interval_frames(fps);
     let bar = reprise_stagekit::progress(reqs.len() as u64, "motion-match");
     let outputs = [
-        ("motion-matching", &args.mm_answers, &args.mm_curves),
-        ("crossfade", &args.crossfade_answers, &args.crossfade_curves),
+        ("motion-matching", &args.io.mm_answers, &args.io.mm_curves),
+        ("crossfade", &args.io.crossfade_answers, &args.io.crossfade_curves),
     ];
     let controls = &labeled.frames.controls;
     let mut writers = outputs.map(|(_, _, c)| curves::Writer::create(c, fps, controls, &provenance));
@@ -231,11 +223,11 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
         let start = *corpus.rows.get(&(r.segment_id, r.frame)).ok_or_else(|| {
             StageError::Input(format!(
                 "{}: request {} starts at segment {} frame {}, which {} does not have; rerun transitions",
-                args.requests.display(),
+                args.io.requests.display(),
                 r.request,
                 r.segment_id,
                 r.frame,
-                args.labeled_frames.display()
+                args.io.labeled_frames.display()
             ))
         })?;
         let Some(target) = corpus.labels.iter().position(|l| *l == r.to) else {
@@ -269,29 +261,6 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     }
     Ok(Some(answered))
 }
-
-/// What the stage reads and writes, for the runner's wiring by artifact
-/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
-pub const WIRING: reprise_stagekit::wiring::Wiring = {
-    use reprise_stagekit::wiring;
-    wiring::Wiring {
-        stage: "motion-match",
-        bin: "reprise-motion-match",
-        inputs: &[
-            wiring::required("labeled_frames", "labeled_frames.parquet"),
-            wiring::required("scales", "scales.parquet"),
-            wiring::required("requests", "transition_requests.parquet"),
-        ],
-        outputs: &[
-            wiring::artifact("mm_answers", "answers_motion_matching.parquet"),
-            wiring::artifact("mm_curves", "transitions_motion_matching.parquet"),
-            wiring::artifact("crossfade_answers", "answers_crossfade.parquet"),
-            wiring::artifact("crossfade_curves", "transitions_crossfade.parquet"),
-        ],
-        derived: &[],
-        partition: wiring::Partition::Whole,
-    }
-};
 
 #[cfg(test)]
 mod tests {
@@ -373,9 +342,9 @@ mod tests {
         let args = write_inputs(dir.path(), &[request(0, "b", 0, 10), request(1, "a", 0, 20)]);
         let answered = run(&args).unwrap().unwrap();
         assert_eq!(answered.len(), 2);
-        let lf = LabeledFrames::read(&args.labeled_frames).unwrap();
+        let lf = LabeledFrames::read(&args.io.labeled_frames).unwrap();
         for (answers, curves_path) in
-            [(&args.mm_answers, &args.mm_curves), (&args.crossfade_answers, &args.crossfade_curves)]
+            [(&args.io.mm_answers, &args.io.mm_curves), (&args.io.crossfade_answers, &args.io.crossfade_curves)]
         {
             let a = transitions::read_answers(answers).unwrap();
             let c = curves::read(curves_path).unwrap();
@@ -406,7 +375,7 @@ mod tests {
         let args = write_inputs(dir.path(), &[request(7, "b", 5, 3)]);
         let err = run(&args).unwrap_err().to_string();
         assert!(err.contains("request 7 starts at segment 5 frame 3") && err.contains("rerun transitions"), "{err}");
-        assert!(!args.mm_answers.exists(), "nothing written");
+        assert!(!args.io.mm_answers.exists(), "nothing written");
     }
 
     /// Bad parameters fail the check.

@@ -7,8 +7,6 @@
 
 mod errors;
 
-use std::path::PathBuf;
-
 use clap::Parser;
 use reprise_artifact::controls::Controls;
 use reprise_artifact::frames::LabeledFrames;
@@ -19,34 +17,36 @@ use reprise_numerics::pca::{Pca, PcaParams};
 use reprise_stagekit::{StageError, StageResult};
 use serde::Serialize;
 
+reprise_stagekit::stage_io! {
+    stage: "pca", bin: "reprise-pca",
+    partition: Label { by: "labeled_frames" },
+    derived: [],
+    inputs {
+        /// Input: the labeled frames.
+        labeled_frames: required "labeled_frames.parquet",
+        /// Input: the scales table.
+        scales: required "scales.parquet",
+        /// Input: the controls table (names the rig, for mesh-space errors).
+        controls: required "controls.parquet",
+    }
+    outputs {
+        /// Output: the PCA models.
+        models: artifact "pca_models.parquet",
+        /// Output: per-frame coordinates Y.
+        coords: artifact "pca_coords.parquet",
+        /// Output: reconstruction errors, scaled against unscaled.
+        errors: artifact "pca_errors.parquet",
+    }
+}
+
 /// `reprise-pca`: per-label PCA of the scaled rig controls.
 #[derive(Debug, Clone, Parser, Serialize)]
 #[command(name = "reprise-pca", version, about)]
 pub struct Args {
-    /// Input: the labeled frames.
-    #[arg(long, value_name = "FILE")]
+    /// The stage's files.
+    #[command(flatten)]
     #[serde(skip)]
-    pub labeled_frames: PathBuf,
-    /// Input: the scales table.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub scales: PathBuf,
-    /// Input: the controls table (names the rig, for mesh-space errors).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub controls: PathBuf,
-    /// Output: the PCA models.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub models: PathBuf,
-    /// Output: per-frame coordinates Y.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub coords: PathBuf,
-    /// Output: reconstruction errors, scaled against unscaled.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub errors: PathBuf,
+    pub io: Io,
     /// Keep the fewest components explaining this share of the variance (the paper: 0.85).
     #[arg(long, default_value_t = 0.85)]
     pub variance: f64,
@@ -65,14 +65,6 @@ pub struct Args {
     /// Measure mesh-space errors through the rig (needs a rig; off for plain curve tables).
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
     pub mesh_errors: bool,
-    /// Only this label (the runner's partitioned run): its rows only are written.
-    #[arg(long, value_name = "LABEL")]
-    #[serde(skip)]
-    pub partition: Option<String>,
-    /// Only validate the flags and exit.
-    #[arg(long)]
-    #[serde(skip)]
-    pub check: bool,
 }
 
 impl Args {
@@ -188,26 +180,23 @@ fn label_data(labeled: &LabeledFrames, scales: &[Scale], path: &std::path::Path)
 /// Runs the stage (or only validates, with `--check`).
 pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     args.validate()?;
-    if args.check {
+    if args.io.check {
         return Ok(None);
     }
-    let provenance = reprise_stagekit::provenance("pca", env!("CARGO_PKG_VERSION"), args)
-        .with_input("labeled_frames", &args.labeled_frames)?
-        .with_input("scales", &args.scales)?
-        .with_input("controls", &args.controls)?;
-    reprise_artifact::provenance::check_made_from(&args.scales, &provenance)?;
-    let labeled = LabeledFrames::read(&args.labeled_frames)?;
-    let scales = scales::read(&args.scales)?;
+    let provenance = args.io.provenance(args)?;
+    reprise_artifact::provenance::check_made_from(&args.io.scales, &provenance)?;
+    let labeled = LabeledFrames::read(&args.io.labeled_frames)?;
+    let scales = scales::read(&args.io.scales)?;
     let rig = if args.mesh_errors {
-        Some(reprise_stagekit::rig::open_rig(&Controls::read(&args.controls)?, &labeled.frames.controls)?)
+        Some(reprise_stagekit::rig::open_rig(&Controls::read(&args.io.controls)?, &labeled.frames.controls)?)
     } else {
         None
     };
     let data = reprise_stagekit::wiring::only_partition(
-        label_data(&labeled, &scales, &args.scales)?,
+        label_data(&labeled, &scales, &args.io.scales)?,
         |d| &d.scaling.label,
-        args.partition.as_deref(),
-        &args.labeled_frames,
+        args.io.partition.as_deref(),
+        &args.io.labeled_frames,
     )?;
     let (mut models, mut coords, mut error_rows, mut labels) =
         (Vec::new(), PcaCoords::default(), Vec::new(), Vec::new());
@@ -246,33 +235,11 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         bar.inc(1);
     }
     bar.finish_and_clear();
-    pca::write_models(&args.models, &labeled.frames.controls, &models, &provenance)?;
-    pca::write_coords(&args.coords, &coords, &provenance)?;
-    pca::write_errors(&args.errors, &error_rows, &provenance)?;
+    pca::write_models(&args.io.models, &labeled.frames.controls, &models, &provenance)?;
+    pca::write_coords(&args.io.coords, &coords, &provenance)?;
+    pca::write_errors(&args.io.errors, &error_rows, &provenance)?;
     Ok(Some(Summary { labels, errors: error_rows }))
 }
-
-/// What the stage reads and writes, for the runner's wiring by artifact
-/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
-pub const WIRING: reprise_stagekit::wiring::Wiring = {
-    use reprise_stagekit::wiring;
-    wiring::Wiring {
-        stage: "pca",
-        bin: "reprise-pca",
-        inputs: &[
-            wiring::required("labeled_frames", "labeled_frames.parquet"),
-            wiring::required("scales", "scales.parquet"),
-            wiring::required("controls", "controls.parquet"),
-        ],
-        outputs: &[
-            wiring::artifact("models", "pca_models.parquet"),
-            wiring::artifact("coords", "pca_coords.parquet"),
-            wiring::artifact("errors", "pca_errors.parquet"),
-        ],
-        derived: &[],
-        partition: wiring::Partition::Label { by: "labeled_frames" },
-    }
-};
 
 #[cfg(test)]
 mod summary_tests {

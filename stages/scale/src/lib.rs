@@ -4,8 +4,6 @@
 //! Controls with zero variance in a label, or that move no vertex, are flagged and left
 //! out — never divided by.
 
-use std::path::PathBuf;
-
 use clap::Parser;
 use reprise_artifact::controls::Controls;
 use reprise_artifact::frames::LabeledFrames;
@@ -16,22 +14,30 @@ use reprise_rig::{PoseLayout, Rig};
 use reprise_stagekit::{ProgressBar, StageError, StageResult};
 use serde::Serialize;
 
+reprise_stagekit::stage_io! {
+    stage: "scale", bin: "reprise-scale",
+    partition: Label { by: "labeled_frames" },
+    derived: [],
+    inputs {
+        /// Input: the labeled frames.
+        labeled_frames: required "labeled_frames.parquet",
+        /// Input: the controls table (names the rig).
+        controls: required "controls.parquet",
+    }
+    outputs {
+        /// Output: the scales table.
+        scales: artifact "scales.parquet",
+    }
+}
+
 /// `reprise-scale`: per-label, per-control scaling weights from the rig.
 #[derive(Debug, Clone, Parser, Serialize)]
 #[command(name = "reprise-scale", version, about)]
 pub struct Args {
-    /// Input: the labeled frames.
-    #[arg(long, value_name = "FILE")]
+    /// The stage's files.
+    #[command(flatten)]
     #[serde(skip)]
-    pub labeled_frames: PathBuf,
-    /// Input: the controls table (names the rig).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub controls: PathBuf,
-    /// Output: the scales table.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub scales: PathBuf,
+    pub io: Io,
     /// Steps n, in standard deviations, at which the rig is evaluated (comma-separated, nonzero).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_values_t = DEFAULT_STEPS.to_vec())]
     pub steps: Vec<f64>,
@@ -44,14 +50,6 @@ pub struct Args {
     /// Controls evaluated per rig batch (memory: batch · steps · 3V values).
     #[arg(long, default_value_t = 32)]
     pub batch: usize,
-    /// Only this label (the runner's partitioned run): its rows only are written.
-    #[arg(long, value_name = "LABEL")]
-    #[serde(skip)]
-    pub partition: Option<String>,
-    /// Only validate the flags and exit.
-    #[arg(long)]
-    #[serde(skip)]
-    pub check: bool,
 }
 
 impl Args {
@@ -81,21 +79,19 @@ pub struct Summary {
 /// Runs the stage (or only validates, with `--check`).
 pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     args.validate()?;
-    if args.check {
+    if args.io.check {
         return Ok(None);
     }
-    let provenance = reprise_stagekit::provenance("scale", env!("CARGO_PKG_VERSION"), args)
-        .with_input("labeled_frames", &args.labeled_frames)?
-        .with_input("controls", &args.controls)?;
-    reprise_artifact::provenance::check_made_from(&args.labeled_frames, &provenance)?;
-    let labeled = LabeledFrames::read(&args.labeled_frames)?;
-    let controls = Controls::read(&args.controls)?;
+    let provenance = args.io.provenance(args)?;
+    reprise_artifact::provenance::check_made_from(&args.io.labeled_frames, &provenance)?;
+    let labeled = LabeledFrames::read(&args.io.labeled_frames)?;
+    let controls = Controls::read(&args.io.controls)?;
     let (rig, layout) = reprise_stagekit::rig::open_rig(&controls, &labeled.frames.controls)?;
     let labels = reprise_stagekit::wiring::only_partition(
         label_order(&labeled),
         String::as_str,
-        args.partition.as_deref(),
-        &args.labeled_frames,
+        args.io.partition.as_deref(),
+        &args.io.labeled_frames,
     )?;
     let n = labeled.frames.controls.len();
     let bar = reprise_stagekit::progress((labels.len() * n) as u64, "scale");
@@ -138,14 +134,14 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         if counts.1 == 0 {
             return Err(StageError::Input(format!(
                 "{}: label `{label}`: no control both varies and moves the mesh; nothing to model",
-                args.labeled_frames.display()
+                args.io.labeled_frames.display()
             )));
         }
         summary.labels.push(counts);
     }
     bar.finish_and_clear();
     summary.seconds = started.elapsed().as_secs_f64();
-    scales::write(&args.scales, &rows, &provenance)?;
+    scales::write(&args.io.scales, &rows, &provenance)?;
     Ok(Some(summary))
 }
 
@@ -206,20 +202,3 @@ fn label_weights(
     bar.inc((mean.len() - varying.len()) as u64);
     Ok(fits)
 }
-
-/// What the stage reads and writes, for the runner's wiring by artifact
-/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
-pub const WIRING: reprise_stagekit::wiring::Wiring = {
-    use reprise_stagekit::wiring;
-    wiring::Wiring {
-        stage: "scale",
-        bin: "reprise-scale",
-        inputs: &[
-            wiring::required("labeled_frames", "labeled_frames.parquet"),
-            wiring::required("controls", "controls.parquet"),
-        ],
-        outputs: &[wiring::artifact("scales", "scales.parquet")],
-        derived: &[],
-        partition: wiring::Partition::Label { by: "labeled_frames" },
-    }
-};

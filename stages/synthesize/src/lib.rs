@@ -3,13 +3,12 @@
 //! over the label models and bridges, and written as rig-control curves. Scripts run in
 //! parallel; each is deterministic for its seed.
 
-use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::{Parser, ValueEnum};
 use rayon::prelude::*;
 use reprise_artifact::curves::{self, Curves};
-pub use reprise_model_library::{LibraryParts, ModelInputs};
+pub use reprise_model_library::LibraryParts;
 use reprise_stagekit::{StageError, StageResult};
 use reprise_synth_engine::engine::{self, Settings};
 use reprise_synth_engine::particle::ConstraintSign;
@@ -37,22 +36,38 @@ pub enum Cost {
     InversePower,
 }
 
+reprise_stagekit::stage_io! {
+    stage: "synthesize", bin: "reprise-synthesize",
+    partition: Whole,
+    derived: [],
+    inputs {
+        /// Input: the GPLVM models.
+        gplvm_models: required "gplvm_models.parquet",
+        /// Input: the GPLVM latents (which training frame each latent point is).
+        latents: required "gplvm_latents.parquet",
+        /// Input: the PCA models.
+        pca_models: required "pca_models.parquet",
+        /// Input: the scales.
+        scales: required "scales.parquet",
+        /// Input: the bridges.
+        bridges: required "bridges.parquet",
+        /// Input: a scripts file (TOML: one script, or several as `[[script]]` tables).
+        scripts: source "a scripts file (TOML)",
+    }
+    outputs {
+        /// Output: the curves.
+        curves: artifact "curves.parquet",
+    }
+}
+
 /// `reprise-synthesize`: scripts to rig-control curves.
 #[derive(Debug, Clone, Parser, Serialize)]
 #[command(name = "reprise-synthesize", version, about)]
 pub struct Args {
-    /// Inputs: the label models, their latents and the bridges.
+    /// The stage's files.
     #[command(flatten)]
     #[serde(skip)]
-    pub models: ModelInputs,
-    /// Input: a scripts file (TOML: one script, or several as `[[script]]` tables).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub scripts: PathBuf,
-    /// Output: the curves.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub curves: PathBuf,
+    pub io: Io,
     /// Frames per second.
     #[arg(long, default_value_t = 24.0)]
     pub fps: f64,
@@ -102,10 +117,6 @@ pub struct Args {
     /// MOVE graph cost exponent p.
     #[arg(long, default_value_t = 4.0)]
     pub graph_power: f64,
-    /// Only validate the flags and exit.
-    #[arg(long)]
-    #[serde(skip)]
-    pub check: bool,
 }
 
 impl Args {
@@ -184,19 +195,22 @@ pub struct ScriptSummary {
 /// Runs the stage (or only validates, with `--check`).
 pub fn run(args: &Args) -> StageResult<Option<Vec<ScriptSummary>>> {
     args.validate()?;
-    if args.check {
+    if args.io.check {
         return Ok(None);
     }
-    let mut provenance = reprise_stagekit::provenance("synthesize", env!("CARGO_PKG_VERSION"), args);
-    for (role, p) in args.models.roles().into_iter().chain([("scripts", &args.scripts)]) {
-        provenance = provenance.with_input(role, p)?;
-    }
-    let text = std::fs::read_to_string(&args.scripts)
-        .map_err(|e| StageError::Input(format!("{}: {e}", args.scripts.display())))?;
-    let stem = args.scripts.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let scripts =
-        Script::parse_file(&text, &stem).map_err(|e| StageError::Input(format!("{}: {e}", args.scripts.display())))?;
-    let parts = args.models.load()?;
+    let provenance = args.io.provenance(args)?;
+    let text = std::fs::read_to_string(&args.io.scripts)
+        .map_err(|e| StageError::Input(format!("{}: {e}", args.io.scripts.display())))?;
+    let stem = args.io.scripts.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let scripts = Script::parse_file(&text, &stem)
+        .map_err(|e| StageError::Input(format!("{}: {e}", args.io.scripts.display())))?;
+    let parts = LibraryParts::load(
+        &args.io.gplvm_models,
+        &args.io.latents,
+        &args.io.pca_models,
+        &args.io.scales,
+        &args.io.bridges,
+    )?;
     let models = &parts.models;
     let lib = parts.library();
     let settings = args.settings();
@@ -206,7 +220,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<ScriptSummary>>> {
             let name = s.name.clone().unwrap_or_default();
             let start = Instant::now();
             let out = engine::run(&lib, s, &settings)
-                .map_err(|e| StageError::Input(format!("{}: script `{name}`: {e}", args.scripts.display())))?;
+                .map_err(|e| StageError::Input(format!("{}: script `{name}`: {e}", args.io.scripts.display())))?;
             Ok((name, out, start.elapsed().as_secs_f64()))
         })
         .collect();
@@ -231,27 +245,6 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<ScriptSummary>>> {
             curves.values.extend(f.controls);
         }
     }
-    curves::write(&args.curves, &curves, &provenance)?;
+    curves::write(&args.io.curves, &curves, &provenance)?;
     Ok(Some(summaries))
 }
-
-/// What the stage reads and writes, for the runner's wiring by artifact
-/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
-pub const WIRING: reprise_stagekit::wiring::Wiring = {
-    use reprise_stagekit::wiring;
-    wiring::Wiring {
-        stage: "synthesize",
-        bin: "reprise-synthesize",
-        inputs: &[
-            wiring::required("gplvm_models", "gplvm_models.parquet"),
-            wiring::required("latents", "gplvm_latents.parquet"),
-            wiring::required("pca_models", "pca_models.parquet"),
-            wiring::required("scales", "scales.parquet"),
-            wiring::required("bridges", "bridges.parquet"),
-            wiring::source("scripts", "a scripts file (TOML)"),
-        ],
-        outputs: &[wiring::artifact("curves", "curves.parquet")],
-        derived: &[],
-        partition: wiring::Partition::Whole,
-    }
-};

@@ -18,8 +18,6 @@
 //! first frame of B — for reprise from the end of its hold (the TRANSITION command), for
 //! the baseline from its start frame; the hold before the request counts for no one.
 
-use std::path::PathBuf;
-
 use clap::Parser;
 use rand::{Rng, SeedableRng};
 use reprise_artifact::curves;
@@ -27,61 +25,61 @@ use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::motion_graph;
 use reprise_artifact::transitions::{self, Answer, Request};
 
-use reprise_model_library::ModelInputs;
+use reprise_model_library::LibraryParts;
 use reprise_stagekit::{StageError, StageResult};
 use reprise_synth_engine::engine::{self, Settings};
 use reprise_synth_engine::script::{Command, Script, Start};
 use reprise_transition_graph::{blend_weight, Graph};
 use serde::Serialize;
 
+reprise_stagekit::stage_io! {
+    stage: "transitions", bin: "reprise-transitions",
+    partition: Whole,
+    derived: [],
+    inputs {
+        /// Input: the GPLVM models.
+        gplvm_models: required "gplvm_models.parquet",
+        /// Input: the GPLVM latents (which training frame each latent point is).
+        latents: required "gplvm_latents.parquet",
+        /// Input: the PCA models.
+        pca_models: required "pca_models.parquet",
+        /// Input: the scales.
+        scales: required "scales.parquet",
+        /// Input: the bridges.
+        bridges: required "bridges.parquet",
+        /// Input: the labeled frames.
+        labeled_frames: required "labeled_frames.parquet",
+        /// Input: the motion graph's nodes.
+        mg_nodes: required "mg_nodes.parquet",
+        /// Input: the motion graph's edges.
+        mg_edges: required "mg_edges.parquet",
+    }
+    outputs {
+        /// Output: the requests.
+        requests: artifact "transition_requests.parquet",
+        /// Output: reprise's answers.
+        reprise_answers: artifact "answers_reprise.parquet",
+        /// Output: reprise's curves.
+        reprise_curves: artifact "transitions_reprise.parquet",
+        /// Output: reprise's curves for the same requests under other seeds (for variety).
+        reprise_reseeded: artifact "transitions_reprise_reseeded.parquet",
+        /// Output: the baseline's answers.
+        motion_graphs_answers: artifact "answers_motion_graphs.parquet",
+        /// Output: the baseline's curves.
+        motion_graphs_curves: artifact "transitions_motion_graphs.parquet",
+        /// Output: the baseline's curves under other seeds (another near-shortest path).
+        motion_graphs_reseeded: artifact "transitions_motion_graphs_reseeded.parquet",
+    }
+}
+
 /// `reprise-transitions`: the transition benchmark.
 #[derive(Debug, Clone, Parser, Serialize)]
 #[command(name = "reprise-transitions", version, about)]
 pub struct Args {
-    /// Inputs: the label models, their latents and the bridges.
+    /// The stage's files.
     #[command(flatten)]
     #[serde(skip)]
-    pub models: ModelInputs,
-    /// Input: the labeled frames.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub labeled_frames: PathBuf,
-    /// Input: the motion graph's nodes.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub mg_nodes: PathBuf,
-    /// Input: the motion graph's edges.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub mg_edges: PathBuf,
-    /// Output: the requests.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub requests: PathBuf,
-    /// Output: reprise's answers.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub reprise_answers: PathBuf,
-    /// Output: reprise's curves.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub reprise_curves: PathBuf,
-    /// Output: reprise's curves for the same requests under other seeds (for variety).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub reprise_reseeded: PathBuf,
-    /// Output: the baseline's answers.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub motion_graphs_answers: PathBuf,
-    /// Output: the baseline's curves.
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub motion_graphs_curves: PathBuf,
-    /// Output: the baseline's curves under other seeds (another near-shortest path).
-    #[arg(long, value_name = "FILE")]
-    #[serde(skip)]
-    pub motion_graphs_reseeded: PathBuf,
+    pub io: Io,
     /// Requests per ordered pair of labels.
     #[arg(long, default_value_t = 20)]
     pub per_pair: usize,
@@ -102,10 +100,6 @@ pub struct Args {
     /// The motion graph's blend length k (frames; as its window).
     #[arg(long, default_value_t = 12)]
     pub window: usize,
-    /// Only validate the flags and exit.
-    #[arg(long)]
-    #[serde(skip)]
-    pub check: bool,
 }
 
 /// One played frame: the label that produced it, its controls, its latent point (reprise's
@@ -247,30 +241,32 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
                 .into(),
         ));
     }
-    if args.check {
+    if args.io.check {
         return Ok(None);
     }
-    let mut provenance = reprise_stagekit::provenance("transitions", env!("CARGO_PKG_VERSION"), args);
-    let own = [("labeled_frames", &args.labeled_frames), ("mg_nodes", &args.mg_nodes), ("mg_edges", &args.mg_edges)];
-    for (role, p) in args.models.roles().into_iter().chain(own) {
-        provenance = provenance.with_input(role, p)?;
-    }
-    let parts = args.models.load()?;
+    let provenance = args.io.provenance(args)?;
+    let parts = LibraryParts::load(
+        &args.io.gplvm_models,
+        &args.io.latents,
+        &args.io.pca_models,
+        &args.io.scales,
+        &args.io.bridges,
+    )?;
     let models = &parts.models;
-    let labeled = LabeledFrames::read(&args.labeled_frames)?;
-    let mg = motion_graph::read_graph(&args.mg_nodes, &args.mg_edges)?;
+    let labeled = LabeledFrames::read(&args.io.labeled_frames)?;
+    let mg = motion_graph::read_graph(&args.io.mg_nodes, &args.io.mg_edges)?;
     mg.check_window(args.window, "--window")?;
-    mg.check_frames(&labeled, &args.labeled_frames)?;
-    reprise_artifact::provenance::check_made_from(&args.mg_nodes, &provenance)?;
+    mg.check_frames(&labeled, &args.io.labeled_frames)?;
+    reprise_artifact::provenance::check_made_from(&args.io.mg_nodes, &provenance)?;
     if labeled.frames.controls != models.controls {
         return Err(StageError::Input(format!(
             "{} and the label models list different controls; rerun the stages after label",
-            args.labeled_frames.display()
+            args.io.labeled_frames.display()
         )));
     }
     let (nodes, edges) = (&mg.nodes, &mg.edges);
     let g = Graph::from_edges(nodes.frame.len(), edges.iter().map(|e| (e.from, e.to, e.cost)))
-        .map_err(|e| StageError::Input(format!("{}: {e}", args.mg_edges.display())))?;
+        .map_err(|e| StageError::Input(format!("{}: {e}", args.io.mg_edges.display())))?;
     let lib = parts.library();
     let settings = Settings { fps: labeled.frames.fps, ..Settings::default() };
     let hold_frames = (args.hold * labeled.frames.fps).round() as usize;
@@ -292,7 +288,7 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
         if rows.is_empty() {
             return Err(StageError::Input(format!(
                 "label `{a}` of the models has no frame in {}",
-                args.labeled_frames.display()
+                args.io.labeled_frames.display()
             )));
         }
         for b in labels.iter().filter(|b| *b != a) {
@@ -314,8 +310,8 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     let bar = reprise_stagekit::progress(requests.len() as u64, "transitions");
     let fps = labeled.frames.fps;
     let outputs = [
-        (&args.reprise_answers, &args.reprise_curves, &args.reprise_reseeded),
-        (&args.motion_graphs_answers, &args.motion_graphs_curves, &args.motion_graphs_reseeded),
+        (&args.io.reprise_answers, &args.io.reprise_curves, &args.io.reprise_reseeded),
+        (&args.io.motion_graphs_answers, &args.io.motion_graphs_curves, &args.io.motion_graphs_reseeded),
     ];
     // Requests are answered a chunk at a time and their frames written before the next
     // chunk: the stage holds a chunk's frames, not the benchmark's.
@@ -406,40 +402,9 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
         }
     }
     let reqs: Vec<Request> = answered.iter().map(|(r, _)| r.clone()).collect();
-    transitions::write_requests(&args.requests, &reqs, &provenance)?;
+    transitions::write_requests(&args.io.requests, &reqs, &provenance)?;
     Ok(Some(answered))
 }
-
-/// What the stage reads and writes, for the runner's wiring by artifact
-/// ([`reprise_stagekit::wiring`]); the roles are this stage's flags.
-pub const WIRING: reprise_stagekit::wiring::Wiring = {
-    use reprise_stagekit::wiring;
-    wiring::Wiring {
-        stage: "transitions",
-        bin: "reprise-transitions",
-        inputs: &[
-            wiring::required("gplvm_models", "gplvm_models.parquet"),
-            wiring::required("latents", "gplvm_latents.parquet"),
-            wiring::required("pca_models", "pca_models.parquet"),
-            wiring::required("scales", "scales.parquet"),
-            wiring::required("bridges", "bridges.parquet"),
-            wiring::required("labeled_frames", "labeled_frames.parquet"),
-            wiring::required("mg_nodes", "mg_nodes.parquet"),
-            wiring::required("mg_edges", "mg_edges.parquet"),
-        ],
-        outputs: &[
-            wiring::artifact("requests", "transition_requests.parquet"),
-            wiring::artifact("reprise_answers", "answers_reprise.parquet"),
-            wiring::artifact("reprise_curves", "transitions_reprise.parquet"),
-            wiring::artifact("reprise_reseeded", "transitions_reprise_reseeded.parquet"),
-            wiring::artifact("motion_graphs_answers", "answers_motion_graphs.parquet"),
-            wiring::artifact("motion_graphs_curves", "transitions_motion_graphs.parquet"),
-            wiring::artifact("motion_graphs_reseeded", "transitions_motion_graphs_reseeded.parquet"),
-        ],
-        derived: &[],
-        partition: wiring::Partition::Whole,
-    }
-};
 
 #[cfg(test)]
 mod tests {

@@ -16,7 +16,7 @@ fn main() {
                     row.unit
                 );
             }
-            eprintln!("report: {}", args.report.display());
+            eprintln!("report: {}", args.io.report.display());
         }
         Ok(())
     });

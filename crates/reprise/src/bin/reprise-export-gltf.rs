@@ -6,7 +6,7 @@ fn main() {
     reprise_stagekit::main("reprise-export-gltf", reprise_stagekit::code_id!("REPRISE_CODE_ID_EXPORT_GLTF"), || {
         if let Some(clips) = reprise_export_gltf::run(&args)? {
             for (name, frames) in &clips {
-                eprintln!("exported animation `{name}` ({frames} frames) into {}", args.glb.display());
+                eprintln!("exported animation `{name}` ({frames} frames) into {}", args.io.glb.display());
             }
         }
         Ok(())

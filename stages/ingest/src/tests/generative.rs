@@ -49,7 +49,7 @@ fn check(name: &'static str, bytes: Vec<u8>, timecode: bool) {
     within(LIMIT, move || {
         let dir = tempfile::tempdir().unwrap();
         let mut a = args(dir.path(), name, "");
-        std::fs::write(a.curves.as_ref().unwrap(), bytes).unwrap();
+        std::fs::write(a.io.curves.as_ref().unwrap(), bytes).unwrap();
         a.max_frames = 20_000;
         a.max_values = 2_000_000;
         if timecode {
@@ -57,7 +57,7 @@ fn check(name: &'static str, bytes: Vec<u8>, timecode: bool) {
             a.source_fps = Some(60.0);
             a.ignore_columns = vec!["BlendShapeCount".into()];
         }
-        let path = a.curves.clone().unwrap();
+        let path = a.io.curves.clone().unwrap();
         if let Err(e) = from_table(&a, &path) {
             assert!(e.to_string().contains(name), "{e}");
         }
@@ -118,13 +118,13 @@ fn the_seed_tables_read() {
         ("p.parquet", parquet_seed(), false),
     ] {
         let mut a = args(dir.path(), name, "");
-        std::fs::write(a.curves.as_ref().unwrap(), bytes).unwrap();
+        std::fs::write(a.io.curves.as_ref().unwrap(), bytes).unwrap();
         if tc {
             a.time_column = Some("Timecode".into());
             a.source_fps = Some(60.0);
             a.ignore_columns = vec!["BlendShapeCount".into()];
         }
-        let path = a.curves.clone().unwrap();
+        let path = a.io.curves.clone().unwrap();
         from_table(&a, &path).unwrap_or_else(|e| panic!("{name}: {e}"));
     }
 }
@@ -139,7 +139,7 @@ fn many_controls_over_a_long_span_are_bounded() {
     let text = format!("frame,{}\n{}\n{}\n", header.join(","), row(0), row(999_999));
     let mut a = args(dir.path(), "many.csv", &text);
     a.max_values = 200_000_000;
-    let path = a.curves.clone().unwrap();
+    let path = a.io.curves.clone().unwrap();
     let e = from_table(&a, &path).unwrap_err().to_string();
     assert!(e.contains("many.csv: line 3, column `frame`") && e.contains("--max-values 200000000"), "{e}");
 }
@@ -151,10 +151,10 @@ fn minus_zero_is_zero() {
     let dir = tempfile::tempdir().unwrap();
     let a =
         args(dir.path(), "z.csv", "clip,time,control,value\na,-0,jaw,1\na,0,brow,2\na,0.05,jaw,1.5\na,0.05,brow,2.5\n");
-    let path = a.curves.clone().unwrap();
+    let path = a.io.curves.clone().unwrap();
     let (frames, _, _) = from_table(&a, &path).unwrap();
     assert_eq!(frames.row(0), &[1.0, 2.0]);
     let dup = args(dir.path(), "d.csv", "clip,time,control,value\na,-0,jaw,1\na,0,jaw,2\n");
-    let e = from_table(&dup, dup.curves.as_ref().unwrap()).unwrap_err().to_string();
+    let e = from_table(&dup, dup.io.curves.as_ref().unwrap()).unwrap_err().to_string();
     assert!(e.contains("d.csv: line 3") && e.contains("repeats line 2"), "{e}");
 }
