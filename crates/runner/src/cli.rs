@@ -63,9 +63,9 @@ pub struct InitArgs {
     /// The pipeline's name (`artifacts/<name>`, `reports/<name>`); default: from the source's file name.
     #[arg(long)]
     pub name: Option<String>,
-    /// The pipeline's frame rate: every clip is resampled to it.
-    #[arg(long, default_value_t = 24.0)]
-    pub fps: f64,
+    /// The pipeline's frame rate: every clip is resampled to it (default: ingest's own).
+    #[arg(long)]
+    pub fps: Option<f64>,
     /// Replace the files init writes if they exist.
     #[arg(long)]
     pub force: bool,

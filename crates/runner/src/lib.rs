@@ -24,7 +24,7 @@
 //! | `partitioned` | running a partitioned stage one label at a time, cached per label, and merging |
 //! | [`child`] | invoking a stage as a child process |
 //! | [`executor`], [`slurm`] | where stage processes run: local children or Slurm job arrays |
-//! | [`run`], [`status`], [`dag_text`], [`inspect`], [`init`] | the subcommands |
+//! | [`run`], [`status`], [`dag_text`], [`inspect`] | the subcommands (`init` is the `reprise-init` crate's, given in [`Commands`]) |
 //! | [`error`] | the error type and its exit codes |
 //!
 //! There is no global state: [`main_with_args`] can be called any number of times in one
@@ -40,7 +40,6 @@ pub mod error;
 pub mod executor;
 pub mod guard;
 pub mod hash;
-pub mod init;
 pub mod inspect;
 pub mod key;
 pub mod label_digest;
@@ -71,16 +70,24 @@ use crate::dag::Dag;
 use crate::locate::BinDirs;
 use crate::pipeline::Pipeline;
 
-/// Entry point of the `reprise` binary: parses `args` (program name first), runs the
-/// command, prints any error once to stderr, and returns the process exit code.
-pub fn main_with_args(args: impl IntoIterator<Item = OsString>) -> i32 {
-    main_with_io(args, &[], &mut std::io::stdout().lock(), &mut std::io::stderr())
+/// What the `reprise` executable gives the runner besides its own commands.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Commands {
+    /// Every stage's declaration (see [`wire`]).
+    pub known: &'static [Wiring],
+    /// `reprise init` (the `reprise-init` crate, which builds on this one); without it,
+    /// `init` says it is not part of this build.
+    pub init: Option<InitCommand>,
 }
 
-/// As [`main_with_args`], knowing the stages `known` declare (see [`wire`]): what the
-/// `reprise` executable runs, with every reprise stage's declaration.
-pub fn main_with_stages(args: impl IntoIterator<Item = OsString>, known: &'static [Wiring]) -> i32 {
-    main_with_io(args, known, &mut std::io::stdout().lock(), &mut std::io::stderr())
+/// `reprise init`: given its arguments and where binaries are found (with the stages'
+/// declarations), writes a pipeline and says what it wrote on `out`.
+pub type InitCommand = fn(&cli::InitArgs, &BinDirs, &mut dyn Write) -> Result<()>;
+
+/// Entry point of the `reprise` binary: parses `args` (program name first), runs the
+/// command, prints any error once to stderr, and returns the process exit code.
+pub fn main_with_args(args: impl IntoIterator<Item = OsString>, commands: Commands) -> i32 {
+    main_with_io(args, commands, &mut std::io::stdout().lock(), &mut std::io::stderr())
 }
 
 /// As [`main_with_args`], writing the runner's own output to `stdout` and `stderr` (stage
@@ -88,7 +95,7 @@ pub fn main_with_stages(args: impl IntoIterator<Item = OsString>, known: &'stati
 /// process environment (`REPRISE_BIN_DIR`, the current executable's directory, `PATH`).
 pub fn main_with_io(
     args: impl IntoIterator<Item = OsString>,
-    known: &'static [Wiring],
+    commands: Commands,
     stdout: &mut dyn Write,
     stderr: &mut dyn Write,
 ) -> i32 {
@@ -105,7 +112,7 @@ pub fn main_with_io(
             };
         }
     };
-    let dirs = BinDirs { known, ..BinDirs::from_env() };
+    let dirs = BinDirs { known: commands.known, ..BinDirs::from_env() };
     let result = match &cli.command {
         Command::Run(args) => {
             let _ = stdout.flush();
@@ -121,7 +128,12 @@ pub fn main_with_io(
         Command::Inspect(args) => inspect::inspect(args).map(|text| {
             let _ = write!(stdout, "{text}");
         }),
-        Command::Init(args) => init::init(args, &dirs, stdout),
+        Command::Init(args) => match commands.init {
+            Some(init) => init(args, &dirs, stdout),
+            None => Err(Error::Init(
+                "`init` is not part of this build of the runner (the `reprise` executable has it)".into(),
+            )),
+        },
     };
     let _ = stdout.flush();
     match result {
@@ -154,7 +166,7 @@ mod tests {
 
     fn call(args: &[&str]) -> (i32, String, String) {
         let (mut out, mut err) = (Vec::new(), Vec::new());
-        let code = main_with_io(args.iter().map(OsString::from), &[], &mut out, &mut err);
+        let code = main_with_io(args.iter().map(OsString::from), Commands::default(), &mut out, &mut err);
         (code, String::from_utf8(out).unwrap(), String::from_utf8(err).unwrap())
     }
 

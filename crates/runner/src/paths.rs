@@ -15,7 +15,7 @@ pub struct ArtifactPath {
 
 impl ArtifactPath {
     /// Resolves `declared` against the (absolute) pipeline directory `dir`.
-    pub(crate) fn new(dir: &Path, declared: &str) -> Self {
+    pub fn new(dir: &Path, declared: &str) -> Self {
         let rel = normalize(Path::new(declared));
         let abs = normalize(&dir.join(&rel));
         let rel = rel.to_string_lossy().replace('\\', "/");
@@ -44,14 +44,14 @@ pub(crate) fn normalize(path: &Path) -> PathBuf {
 }
 
 /// `path` made absolute against `base` (an absolute directory), normalised.
-pub(crate) fn absolute(base: &Path, path: &Path) -> PathBuf {
+pub fn absolute(base: &Path, path: &Path) -> PathBuf {
     normalize(&base.join(path))
 }
 
 /// `target` relative to the directory `from` (both absolute and normalised), `/`-separated,
 /// as a pipeline file names it: `../shared/x.glb`. `target` itself when they share no
 /// root; `.` when they are the same.
-pub(crate) fn relative(from: &Path, target: &Path) -> String {
+pub fn relative(from: &Path, target: &Path) -> String {
     let (a, b): (Vec<Component>, Vec<Component>) = (from.components().collect(), target.components().collect());
     // Sharing only the root (or nothing): the absolute path says more than `../../..`.
     if a.first() != b.first() || a.iter().zip(&b).take_while(|(x, y)| x == y).count() < 2 {
@@ -74,7 +74,7 @@ pub(crate) fn relative(from: &Path, target: &Path) -> String {
 }
 
 /// Whether a declared input is a glob: it holds `*`, `?`, `[` or `{`.
-pub(crate) fn is_glob(declared: &str) -> bool {
+pub fn is_glob(declared: &str) -> bool {
     declared.contains(['*', '?', '[', '{'])
 }
 
@@ -82,7 +82,7 @@ pub(crate) fn is_glob(declared: &str) -> bool {
 /// `takes/a.bvh`, `takes/b.bvh`), sorted by name. Only the last component may hold
 /// wildcards; directories and hidden files (`.x`) are not matched. An error says why in
 /// words: a bad pattern, an unreadable directory, or no match.
-pub(crate) fn expand_glob(dir: &Path, declared: &str) -> Result<Vec<String>, String> {
+pub fn expand_glob(dir: &Path, declared: &str) -> Result<Vec<String>, String> {
     let declared = declared.replace('\\', "/");
     let (parent, pattern) = declared.rsplit_once('/').map_or(("", declared.as_str()), |(p, f)| (p, f));
     if is_glob(parent) {

@@ -67,6 +67,9 @@ pub enum PathKind {
     Auto,
 }
 
+/// The latent dimension q when `--q` is not given: the paper's 3.
+pub const DEFAULT_Q: usize = 3;
+
 reprise_stagekit::stage_io! {
     stage: "gplvm", bin: "reprise-gplvm",
     partition: Label { by: "labeled_frames" },
@@ -105,7 +108,7 @@ pub struct Args {
     pub io: Io,
 
     /// Latent dimension q (the paper: 3).
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = DEFAULT_Q)]
     pub q: usize,
     /// The optimiser: `lbfgs` or `scg` (Netlab's, the paper's).
     #[arg(long, value_enum, default_value_t = OptimizerKind::Lbfgs)]

@@ -1,7 +1,8 @@
-//! `reprise`: the pipeline runner. All logic lives in `reprise-runner`; this binary tells
+//! `reprise`: the pipeline runner. Its logic lives in `reprise-runner`; this binary tells
 //! it what each reprise stage reads and writes ([`reprise::STAGES`]), so pipelines can
-//! leave the wiring out.
+//! leave the wiring out, and gives it `reprise init` (`reprise-init`).
 
 fn main() {
-    std::process::exit(reprise_runner::main_with_stages(std::env::args_os(), reprise::STAGES));
+    let commands = reprise_runner::Commands { known: reprise::STAGES, init: Some(reprise_init::init) };
+    std::process::exit(reprise_runner::main_with_args(std::env::args_os(), commands));
 }

@@ -8,11 +8,11 @@ use crate::project::Project;
 fn first_run_runs_all_and_second_runs_none() {
     let p = Project::new();
     // Through the real entry point, twice in one process.
-    assert_eq!(main_with_args(p.argv(&["run"])), 0);
+    assert_eq!(main_with_args(p.argv(&["run"]), reprise_runner::Commands::default()), 0);
     assert_eq!(p.checks(), ["a", "b", "c", "d"], "every stage is checked first");
     assert_eq!(p.runs(), ["a", "b", "c", "d"]);
     assert_eq!(p.read("art/c.txt"), "source\na mode=ok k=1\nb mode=ok k=1 shift=-0.5\nc mode=ok tags=x,y\n");
-    assert_eq!(main_with_args(p.argv(&["run"])), 0);
+    assert_eq!(main_with_args(p.argv(&["run"]), reprise_runner::Commands::default()), 0);
     assert!(p.runs().is_empty());
     assert!(p.checks().is_empty(), "nothing to run, nothing to check");
 

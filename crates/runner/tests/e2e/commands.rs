@@ -26,7 +26,7 @@ fn inspect_refuses_a_text_artifact() {
     p.run_ok(&[]);
     let (mut out, mut err) = (Vec::new(), Vec::new());
     let args = ["reprise", "inspect", p.path("art/a.txt").to_str().unwrap()].map(std::ffi::OsString::from);
-    let code = reprise_runner::main_with_io(args, &[], &mut out, &mut err);
+    let code = reprise_runner::main_with_io(args, reprise_runner::Commands::default(), &mut out, &mut err);
     assert_eq!(code, exit::INPUT);
     let err = String::from_utf8(err).unwrap();
     assert!(err.contains("a.txt` is not a Parquet file"), "{err}");

@@ -151,7 +151,7 @@ impl Project {
     /// `reprise <args…> --pipeline <this project's pipeline.toml>` through `main_with_io`.
     pub fn reprise(&self, args: &[&str]) -> Outcome {
         let (mut out, mut err) = (Vec::new(), Vec::new());
-        let code = main_with_io(self.argv(args), &[], &mut out, &mut err);
+        let code = main_with_io(self.argv(args), reprise_runner::Commands::default(), &mut out, &mut err);
         Outcome { code, stdout: String::from_utf8(out).unwrap(), stderr: String::from_utf8(err).unwrap() }
     }
 
