@@ -91,20 +91,45 @@ pub fn provenance(stage: &str, version: &str, params: &impl Serialize) -> Proven
     Provenance::new(stage, version, params)
 }
 
-/// One line on stderr per system of a transition benchmark stage: how many of the
-/// requests it answered and the median latency (frames) of those answered.
-pub fn print_answer_summary<'a>(
-    system: &str,
-    answers: impl IntoIterator<Item = &'a reprise_artifact::transitions::Answer>,
-) {
-    let (mut latencies, mut total) = (Vec::new(), 0);
-    for a in answers {
-        total += 1;
-        latencies.extend(a.latency);
+/// What one system of a transition benchmark stage did with its requests: how many it
+/// answered, of how many, and the median latency (frames) of those answered (the upper
+/// median: of an even count, the larger middle value).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct AnswerSummary {
+    /// The system's id.
+    pub system: String,
+    /// Requests answered.
+    pub answered: usize,
+    /// Requests asked.
+    pub total: usize,
+    /// The median latency of the answered requests, frames (none answered: `None`).
+    pub median_latency: Option<i64>,
+}
+
+impl AnswerSummary {
+    /// The summary of `system`'s `answers`.
+    pub fn new<'a>(system: &str, answers: impl IntoIterator<Item = &'a reprise_artifact::transitions::Answer>) -> Self {
+        let (mut latencies, mut total) = (Vec::new(), 0);
+        for a in answers {
+            total += 1;
+            latencies.extend(a.latency);
+        }
+        latencies.sort_unstable();
+        let median_latency = latencies.get(latencies.len() / 2).copied();
+        Self { system: system.to_string(), answered: latencies.len(), total, median_latency }
     }
-    latencies.sort_unstable();
-    let median = latencies.get(latencies.len() / 2).map_or("-".to_string(), |v| v.to_string());
-    eprintln!("{system:<16} answered {:>4} / {total:<4} requests, median latency {median} frames", latencies.len());
+}
+
+/// One line: `reprise          answered 1118 / 1120 requests, median latency 9 frames`.
+impl std::fmt::Display for AnswerSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let median = self.median_latency.map_or("-".to_string(), |v| v.to_string());
+        write!(
+            f,
+            "{:<16} answered {:>4} / {:<4} requests, median latency {median} frames",
+            self.system, self.answered, self.total
+        )
+    }
 }
 
 /// Items mapped in parallel per chunk (see [`par_map_chunked`]).
@@ -168,3 +193,29 @@ pub fn progress_in(multi: &MultiProgress, len: u64, message: &str) -> ProgressBa
 /// answer's meshes) held about 1.4 × its live memory.
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
+#[cfg(test)]
+mod tests {
+    use reprise_artifact::transitions::Answer;
+
+    use super::AnswerSummary;
+
+    /// Refusals count toward the total only; the median is the upper one of the answered
+    /// latencies; with none answered it is shown as "-".
+    #[test]
+    fn an_answer_summary_counts_and_takes_the_median() {
+        let answers = [
+            Answer::reached(0, 9),
+            Answer::failed("no bridge"),
+            Answer::reached(3, 4),
+            Answer::reached(1, 12),
+            Answer::reached(2, 5),
+        ];
+        let s = AnswerSummary::new("reprise", &answers);
+        assert_eq!((s.answered, s.total, s.median_latency), (4, 5, Some(9)));
+        assert_eq!(s.to_string(), "reprise          answered    4 / 5    requests, median latency 9 frames");
+        let none = AnswerSummary::new("crossfade", &[Answer::failed("x")]);
+        assert_eq!(none.to_string(), "crossfade        answered    0 / 1    requests, median latency - frames");
+        assert_eq!(AnswerSummary::new("empty", []).median_latency, None);
+    }
+}

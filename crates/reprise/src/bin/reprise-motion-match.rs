@@ -6,7 +6,7 @@ fn main() {
     reprise_stagekit::main("reprise-motion-match", reprise_stagekit::code_id!("REPRISE_CODE_ID_MOTION_MATCH"), || {
         if let Some(answers) = reprise_motion_match::run(&args)? {
             for (s, name) in ["motion-matching", "crossfade"].into_iter().enumerate() {
-                reprise_stagekit::print_answer_summary(name, answers.iter().map(|(_, a)| &a[s]));
+                eprintln!("{}", reprise_stagekit::AnswerSummary::new(name, answers.iter().map(|(_, a)| &a[s])));
             }
         }
         Ok(())
