@@ -29,4 +29,4 @@ pub use error::BvhError;
 pub use ingest::{ingest, ingest_limited, resample, resample_limited, BvhCurves, ControlInfo, MAX_FRAMES};
 pub use parse::{parse, read, MAX_DEPTH};
 pub use rig::BvhRig;
-pub use skeleton::{Bvh, Channel, ControlKind, ControlSpec, Node};
+pub use skeleton::{Bvh, Channel, ControlKind, ControlSpec, Node, OFFSET_TOLERANCE};

@@ -122,6 +122,10 @@ pub struct Bvh {
     pub motion: Vec<f64>,
 }
 
+/// How far two takes' OFFSETs may differ and still be one skeleton: this share of the
+/// skeleton's largest OFFSET component (2 %: a re-calibrated performer, not another one).
+pub const OFFSET_TOLERANCE: f64 = 0.02;
+
 impl Bvh {
     /// Number of ROOT/JOINT nodes (end sites excluded).
     pub fn joint_count(&self) -> usize {
@@ -152,9 +156,12 @@ impl Bvh {
     }
 
     /// The first way `other`'s skeleton differs from this one's, or `None` when both have
-    /// the same joints and end sites (names, parents, channels in order) and the same
-    /// OFFSETs (within 1e-6 of the larger bone; an axis a position channel sets is not
-    /// compared). Takes of one skeleton can share one rig; different skeletons cannot.
+    /// the same joints and end sites (names, parents, channels in order) and OFFSETs
+    /// within [`OFFSET_TOLERANCE`] of the largest OFFSET component (an axis a position
+    /// channel sets is not compared): takes of one performer recorded on different days
+    /// differ by a little calibration. Takes of one skeleton can share one rig (the first
+    /// take's OFFSETs; [`Bvh::offset_gap`] says by how much another differs); different
+    /// skeletons cannot.
     pub fn skeleton_difference(&self, other: &Bvh) -> Option<String> {
         if self.nodes.len() != other.nodes.len() {
             return Some(format!("{} joints and end sites, not {}", other.nodes.len(), self.nodes.len()));
@@ -172,17 +179,37 @@ impl Bvh {
                 return at(format!("`{}` has channels {:?}, not {:?}", b.name, b.channels, a.channels));
             }
             let set = |axis: usize| a.channels.iter().any(|c| !c.is_rotation() && c.axis() == axis);
-            if let Some(axis) = (0..3).find(|&k| !set(k) && (a.offset[k] - b.offset[k]).abs() > 1e-6 * scale) {
+            if let Some(axis) =
+                (0..3).find(|&k| !set(k) && (a.offset[k] - b.offset[k]).abs() > OFFSET_TOLERANCE * scale)
+            {
                 return at(format!(
-                    "`{}` has OFFSET {:?}, not {:?} ({} differs): another skeleton",
+                    "`{}` has OFFSET {:?}, not {:?} ({} differs by more than {} % of the largest OFFSET, {scale}): \
+                     another skeleton",
                     b.name,
                     b.offset,
                     a.offset,
-                    ["X", "Y", "Z"][axis]
+                    ["X", "Y", "Z"][axis],
+                    OFFSET_TOLERANCE * 100.0
                 ));
             }
         }
         None
+    }
+
+    /// The largest OFFSET difference between this skeleton and `other`'s (same structure
+    /// assumed, as [`Bvh::skeleton_difference`] checks): the joint or end site and the
+    /// difference (file units), or `None` when every OFFSET is equal. Axes set by a
+    /// position channel are not compared.
+    pub fn offset_gap(&self, other: &Bvh) -> Option<(String, f64)> {
+        let mut worst: Option<(String, f64)> = None;
+        for (a, b) in self.nodes.iter().zip(&other.nodes) {
+            let set = |axis: usize| a.channels.iter().any(|c| !c.is_rotation() && c.axis() == axis);
+            let gap = (0..3).filter(|&k| !set(k)).map(|k| (a.offset[k] - b.offset[k]).abs()).fold(0.0, f64::max);
+            if gap > 0.0 && worst.as_ref().is_none_or(|w| gap > w.1) {
+                worst = Some((b.name.clone(), gap));
+            }
+        }
+        worst
     }
 
     /// The rig controls, in hierarchy order: per joint, `.tx .ty .tz` if it has any

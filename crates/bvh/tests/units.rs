@@ -325,6 +325,14 @@ fn skeleton_difference_names_the_first_mismatch() {
         .replace("OFFSET 1 2 3", "OFFSET 1 2 4");
     let why = base.skeleton_difference(&parse("d.bvh", &longer).unwrap()).unwrap();
     assert!(why.contains("J.end") && why.contains("Z differs"), "{why}");
+    // Within the tolerance (2 % of the largest OFFSET, 3): one skeleton, the gap reported.
+    let recalibrated = one_joint("6 Xposition Yposition Zposition Zrotation Xrotation Yrotation", "0 0 0 0 0 0")
+        .replace("OFFSET 1 2 3", "OFFSET 1 2 3.05");
+    let other = parse("f.bvh", &recalibrated).unwrap();
+    assert_eq!(base.skeleton_difference(&other), None);
+    let (joint, gap) = base.offset_gap(&other).unwrap();
+    assert!(joint == "J.end" && (gap - 0.05).abs() < 1e-9, "{joint} {gap}");
+    assert_eq!(base.offset_gap(&base), None);
     let renamed = one_joint("6 Xposition Yposition Zposition Zrotation Xrotation Yrotation", "0 0 0 0 0 0")
         .replace("ROOT J", "ROOT K");
     let why = base.skeleton_difference(&parse("e.bvh", &renamed).unwrap()).unwrap();

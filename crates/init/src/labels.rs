@@ -89,22 +89,49 @@ pub fn plan_labels(clips: &[ClipInfo], min_frames: i64, thin: &BTreeMap<String, 
             }
         }
     }
-    for (clip, fate) in clips.iter().zip(fates.iter_mut()) {
+    let long_by_word: Vec<(String, String)> = clips
+        .iter()
+        .zip(&fates)
+        .filter_map(|(c, f)| if let Fate::Own(l) = f { Some((word(&c.name), l.clone())) } else { None })
+        .collect();
+    let short_by_word = |w: &str| {
+        clips.iter().zip(&fates).filter(|(c, f)| matches!(f, Fate::Excluded(_)) && word(&c.name) == w).count()
+    };
+    let mut decided = Vec::with_capacity(fates.len());
+    for (clip, fate) in clips.iter().zip(&fates) {
         if !matches!(fate, Fate::Excluded(_)) {
+            decided.push(fate.clone());
             continue;
         }
         let w = word(&clip.name);
         let total = words.iter().find(|(x, _)| *x == w).map_or(0, |(_, t)| *t);
-        *fate = if own.contains(&w) || total >= min_frames {
-            Fate::Grouped(w)
-        } else {
-            Fate::Excluded(format!(
-                "{} frames: too short to model (a label needs at least {min_frames}), and no other \
-                 clip's name starts with `{w}` to share a label with",
-                clip.frames
-            ))
-        };
+        if own.contains(&w) || total >= min_frames {
+            decided.push(Fate::Grouped(w));
+            continue;
+        }
+        let mut why = format!("{} frames: too short to model (a label needs at least {min_frames})", clip.frames);
+        let others = short_by_word(&w) - 1;
+        if others > 0 {
+            let _ = write!(
+                why,
+                "; with the {others} other short clip(s) whose names start with `{w}` it has {total} frames, still fewer"
+            );
+        }
+        let long: Vec<String> = long_by_word.iter().filter(|(x, _)| *x == w).map(|(_, l)| format!("`{l}`")).collect();
+        if !long.is_empty() {
+            let _ = write!(
+                why,
+                "; the long clips whose names start with `{w}` have labels of their own ({}): to keep it, give it one of \
+                 them in the labels file",
+                long.join(", ")
+            );
+        }
+        if others == 0 && long.is_empty() {
+            let _ = write!(why, ", and no other clip's name starts with `{w}` to share a label with");
+        }
+        decided.push(Fate::Excluded(why));
     }
+    let mut fates = decided;
     for fate in &mut fates {
         if let Fate::Own(l) | Fate::Grouped(l) = fate {
             if let Some(why) = thin.get(l.as_str()) {
@@ -119,9 +146,12 @@ pub fn plan_labels(clips: &[ClipInfo], min_frames: i64, thin: &BTreeMap<String, 
         let list: Vec<String> = clips.iter().map(|c| format!("`{}` ({} frames)", c.name, c.frames)).collect();
         return Err(Error::Init(format!(
             "the source's clips make {} label(s) that can be modeled ({}); a pipeline needs two to bridge and \
-             compare: write a labels file that splits the takes into labels (frame ranges) and give it with --labels",
+             compare: write a labels file that splits the takes into labels by frame ranges, one \
+             `[[range]]` table per part (`clip = \"{}\"`, `start = 0`, `end = 119`, `label = \"…\"`, frames \
+             inclusive; docs/inputs.md, \"Labels file\"), and give it with --labels",
             labels.len(),
-            list.join(", ")
+            list.join(", "),
+            clips.iter().max_by_key(|c| c.frames).map_or("", |c| c.name.as_str())
         )));
     }
     Ok(plan)

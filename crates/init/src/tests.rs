@@ -53,7 +53,25 @@ fn labels_one_per_clip_short_ones_grouped_or_excluded() {
 fn fewer_than_two_labels_is_an_error_naming_the_clips() {
     let e = plan_labels(&[clip("Take", 200), clip("Blink", 5)], 24, &BTreeMap::new()).unwrap_err().to_string();
     assert!(e.contains("make 1 label(s)") && e.contains("`Blink` (5 frames)"), "{e}");
-    assert!(e.contains("--labels"), "{e}");
+    assert!(e.contains("--labels") && e.contains("`[[range]]` table per part (`clip = \"Take\"`"), "{e}");
+}
+
+/// An excluded clip's reason says what it could have shared: the other short clips of
+/// its word (too short together), the long clips of its word (labels of their own), or
+/// nothing.
+#[test]
+fn an_excluded_clip_says_what_it_could_share() {
+    let clips = [clip("Jump_Start", 40), clip("Jump_Land", 6), clip("Jump_Air", 5), clip("Wave", 30), clip("Blink", 3)];
+    let plan = plan_labels(&clips, 24, &BTreeMap::new()).unwrap();
+    let why = |name: &str| match &plan.clips.iter().find(|(c, _)| c.name == name).unwrap().1 {
+        Fate::Excluded(why) => why.clone(),
+        other => panic!("{name}: {other:?}"),
+    };
+    let land = why("Jump_Land");
+    assert!(land.contains("with the 1 other short clip(s) whose names start with `jump` it has 11 frames"), "{land}");
+    assert!(land.contains("have labels of their own (`jump_start`)"), "{land}");
+    assert!(!land.contains("no other clip"), "{land}");
+    assert!(why("Blink").contains("no other clip's name starts with `blink`"));
 }
 
 #[test]

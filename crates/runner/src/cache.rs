@@ -281,7 +281,12 @@ fn own_reasons(
                 }
                 Some(_) => {}
             },
-            _ => reasons.push(Reason::OutputAdded { name: name.clone(), path: path.rel.clone() }),
+            // Not recorded by the last run (a new output, or a run that stopped before
+            // recording it): "added" only if the file is there, else it is missing.
+            _ => reasons.push(match hasher.hash(&path.abs)? {
+                None => Reason::OutputMissing { name: name.clone(), path: path.rel.clone() },
+                Some(_) => Reason::OutputAdded { name: name.clone(), path: path.rel.clone() },
+            }),
         }
     }
     for name in entry.outputs.keys().filter(|n| !stage.outputs.iter().any(|(m, _)| m == *n)) {
@@ -473,6 +478,20 @@ mod tests {
                 vec![UPSTREAM, "output `out` modified since it was written (out.txt)"]
             ]
         );
+    }
+
+    /// An output the last run did not record (a run that stopped before recording it) is
+    /// "missing" when its file is gone and "added" only when the file is there.
+    #[test]
+    fn unrecorded_outputs_are_missing_unless_present() {
+        let f = Fixture::new();
+        let (p, d) = f.pipeline("");
+        let mut lock = f.run_all(&p);
+        let make = lock.stages.values_mut().find(|e| e.outputs.contains_key("mid")).unwrap();
+        make.outputs.remove("mid");
+        assert_eq!(f.reasons(&p, &d, &lock, &[])[0], ["output `mid` added (mid.txt)"]);
+        fs::remove_file(f.path("mid.txt")).unwrap();
+        assert_eq!(f.reasons(&p, &d, &lock, &[])[0], ["output `mid` missing (mid.txt)"]);
     }
 
     #[test]

@@ -155,6 +155,19 @@ pub(crate) fn run(
 
     let peak = run_units(job, &units, &stale, hasher, lock, lock_path, &mut entry, log)?;
     merge_outputs(stage, &units, &order, &hashes)?;
+    let stage_dir = pipeline.artifacts.abs.join("partitions").join(file_name(&stage.name));
+    let keep: Vec<(String, Option<String>)> =
+        units.iter().map(|u| (file_name(&u.label), u.to.as_deref().map(file_name))).collect();
+    match prune(&stage_dir, &keep) {
+        Ok(gone) if !gone.is_empty() => {
+            say(
+                log,
+                &format!("{:>10} {}: removed the partitions of labels gone: {}", "labels", stage.name, gone.join(", ")),
+            );
+        }
+        Ok(_) => {}
+        Err(e) => say(log, &format!("{:>10} {}: could not remove old partitions: {e}", "labels", stage.name)),
+    }
     entry.outputs = record_outputs(stage, hasher)?;
     entry.key = cache::current_key(stage, bin, &hashes).unwrap_or_default();
     entry.finished_at = crate::clock::rfc3339(SystemTime::now());
@@ -207,6 +220,46 @@ fn unit(
     let outputs = part.outputs.iter().map(|(name, path)| (name.as_str(), path.rel.as_str()));
     let key = cache_key(&part.name, &bin.record().identity(), &part.params, &digests, outputs);
     Unit { name, label: label.to_string(), to: to.map(str::to_string), stage: part, key }
+}
+
+/// Removes the partition directories under `stage_dir` (`<artifacts>/partitions/<stage>`)
+/// of labels (or pairs) no longer in `keep` (directory names: `(label, to)`), so that a
+/// renamed or removed label leaves nothing behind; returns what it removed. Only
+/// directories are touched.
+fn prune(stage_dir: &Path, keep: &[(String, Option<String>)]) -> std::io::Result<Vec<String>> {
+    let mut gone = Vec::new();
+    let dirs = |dir: &Path| -> std::io::Result<Vec<String>> {
+        let mut names = Vec::new();
+        for entry in std::fs::read_dir(dir)? {
+            let entry = entry?;
+            if entry.file_type()?.is_dir() {
+                names.push(entry.file_name().to_string_lossy().into_owned());
+            }
+        }
+        names.sort();
+        Ok(names)
+    };
+    if !stage_dir.is_dir() {
+        return Ok(gone);
+    }
+    for label in dirs(stage_dir)? {
+        let mine: Vec<&Option<String>> = keep.iter().filter(|(l, _)| *l == label).map(|(_, to)| to).collect();
+        if mine.is_empty() {
+            std::fs::remove_dir_all(stage_dir.join(&label))?;
+            gone.push(label);
+            continue;
+        }
+        if mine.iter().all(|to| to.is_none()) {
+            continue;
+        }
+        for to in dirs(&stage_dir.join(&label))? {
+            if !mine.iter().any(|t| t.as_deref() == Some(to.as_str())) {
+                std::fs::remove_dir_all(stage_dir.join(&label).join(&to))?;
+                gone.push(format!("{label} → {to}"));
+            }
+        }
+    }
+    Ok(gone)
 }
 
 /// A partition's name in the lock and the log: the label, or `from → to` for a pair. A
@@ -399,5 +452,27 @@ mod tests {
         assert_eq!(list(std::iter::empty()), "");
         let many: Vec<String> = (0..10).map(|i| i.to_string()).collect();
         assert!(list(many.iter().map(String::as_str)).ends_with(", and 2 more)"));
+    }
+
+    /// Directories of labels and pairs no longer present go; current ones, and files,
+    /// stay.
+    #[test]
+    fn prune_removes_only_gone_partitions() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
+        for d in ["a", "old", "p/q", "p/gone", "p/r"] {
+            std::fs::create_dir_all(dir.join(d)).unwrap();
+        }
+        std::fs::write(dir.join("note.txt"), "").unwrap();
+        let keep = [
+            ("a".to_string(), None),
+            ("p".to_string(), Some("q".to_string())),
+            ("p".to_string(), Some("r".to_string())),
+        ];
+        let gone = super::prune(dir, &keep).unwrap();
+        assert_eq!(gone, ["old", "p → gone"]);
+        assert!(dir.join("a").is_dir() && dir.join("p/q").is_dir() && dir.join("p/r").is_dir());
+        assert!(!dir.join("old").exists() && !dir.join("p/gone").exists() && dir.join("note.txt").exists());
+        assert_eq!(super::prune(&dir.join("missing"), &keep).unwrap(), Vec::<String>::new());
     }
 }

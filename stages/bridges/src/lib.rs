@@ -3,7 +3,10 @@
 //! $p = g_1(x_1)$, project it into M2's scaled PCA space ($\hat y = Pp + o$, Eq. 13), and
 //! find the M2 latent point $x_2 = \arg\min_x\lVert\hat y - y_2(x)\rVert^2$ (Eq. 15) by
 //! multi-start SCG from M2's training latents whose outputs are nearest $\hat y$ plus
-//! random starts. The candidates' distance is measured in M2's scaled control space,
+//! random starts, bounded to M2's latent bounding box widened by `latent_margin` of its
+//! extent on each side (far from its latents M2's mean reverts to the output mean, which
+//! "matches" any pose near it at a point the model knows nothing of; candidates pressed
+//! against the bound are counted). The candidates' distance is measured in M2's scaled control space,
 //! $\lVert W_2(p - g_2(x_2))\rVert$ (mesh length), and, through the rig, as the RMS vertex
 //! distance of the two poses. A pair keeps its candidates under a threshold. The default,
 //! `mesh-motion`, is absolute and comes from the data: a bridge's two poses may differ by
@@ -13,7 +16,8 @@
 //! bridges depend on its two labels only and the runner can cache each pair). With the defaults, the
 //! 12-frame smoothstep blend, whose steepest frame carries 1.5/12 of the gap, adds at most
 //! two median training frame steps per frame. Two labels with no pose that close
-//! get no direct bridge (the engine then routes through a third label, or fails). The alternatives: a quantile of
+//! get no direct bridge (the engine then routes through a third label where one bridges
+//! both, or fails). The alternatives: a quantile of
 //! the pair's own rig distances (every pair keeps at least one bridge), or an absolute rig
 //! or mesh distance.
 
@@ -87,6 +91,12 @@ pub struct Args {
     /// SCG iterations per start ("small steps").
     #[arg(long, default_value_t = 40)]
     pub max_iters: usize,
+    /// Where x₂ may land: the search is bounded to M2's latent bounding box widened by
+    /// this share of its extent on each side (0.25: a box 1.5 × the extent). Far from its
+    /// latents M2's mean is only the output mean, not a pose the model knows. Candidates
+    /// whose x₂ presses against the bound are counted.
+    #[arg(long, default_value_t = 0.25)]
+    pub latent_margin: f64,
     /// Which threshold keeps a candidate.
     #[arg(long, value_enum, default_value_t = Threshold::MeshMotion)]
     pub threshold: Threshold,
@@ -119,6 +129,9 @@ impl Args {
         let cfg = |m: &str| Err(StageError::Config(m.into()));
         if self.stride == 0 || self.max_iters == 0 || self.nearest_starts.saturating_add(self.random_starts) == 0 {
             return cfg("--stride and --max-iters must be at least 1, and there must be at least one start");
+        }
+        if !(self.latent_margin.is_finite() && self.latent_margin >= 0.0) {
+            return cfg("--latent-margin must be a finite number >= 0");
         }
         if self.nearest_starts > MAX_STARTS || self.random_starts > MAX_STARTS || self.max_iters > MAX_ITERS {
             return Err(StageError::Config(format!(
@@ -165,6 +178,10 @@ pub struct PairCount {
     pub frame_motion: Option<f64>,
     /// With a mesh threshold: the largest mesh distance kept.
     pub max_mesh: Option<f64>,
+    /// Candidates whose x₂ presses against M2's bound (`--latent-margin`): the search
+    /// wanted to go farther from M2's latents. They are kept only if they pass the
+    /// threshold like any other.
+    pub at_bound: usize,
 }
 
 /// The `q`-quantile over all segments' consecutive frame pairs of the RMS vertex distance
@@ -249,6 +266,8 @@ fn training_outputs(m: &LatentModel) -> Vec<f64> {
 pub struct Outcome {
     /// Per ordered pair.
     pub counts: Vec<PairCount>,
+    /// How many label models there are.
+    pub labels: usize,
 }
 
 /// The stage's summary: one line per ordered pair (candidates, bridges kept, the best rig
@@ -258,17 +277,18 @@ impl std::fmt::Display for Outcome {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(
             f,
-            "{:<12} {:<12} {:>10} {:>5} {:>12} {:>12} {:>12}",
-            "from", "to", "candidates", "kept", "best rig dist", "frame motion", "max mesh"
+            "{:<12} {:<12} {:>10} {:>8} {:>5} {:>12} {:>12} {:>12}",
+            "from", "to", "candidates", "at bound", "kept", "best rig dist", "frame motion", "max mesh"
         )?;
         let or_dash = |v: Option<f64>| v.map_or_else(|| "-".into(), |v| format!("{v:.4}"));
         for c in &self.counts {
             writeln!(
                 f,
-                "{:<12} {:<12} {:>10} {:>5} {:>12.4} {:>12} {:>12}",
+                "{:<12} {:<12} {:>10} {:>8} {:>5} {:>12.4} {:>12} {:>12}",
                 c.from,
                 c.to,
                 c.candidates,
+                c.at_bound,
                 c.kept,
                 c.best,
                 or_dash(c.frame_motion),
@@ -277,10 +297,19 @@ impl std::fmt::Display for Outcome {
         }
         let none = self.counts.iter().filter(|c| c.kept == 0).count();
         if none > 0 {
+            let then = if self.labels > 2 {
+                "synthesis routes through a third label where one bridges both"
+            } else {
+                "with two labels there is no third to route through: those transitions fail"
+            };
+            writeln!(f, "{none} of {} ordered pairs have no direct bridge ({then})", self.counts.len())?;
+        }
+        let at_bound: usize = self.counts.iter().map(|c| c.at_bound).sum();
+        if at_bound > 0 {
             writeln!(
                 f,
-                "{none} of {} ordered pairs have no direct bridge (synthesis routes through a third label)",
-                self.counts.len()
+                "{at_bound} candidate(s) found x2 only at the edge of the target model's latent box (--latent-margin); \
+                 kept where the threshold allows"
             )?;
         }
         Ok(())
@@ -297,16 +326,20 @@ struct Candidate {
     rig: f64,
 }
 
-fn candidates(m1: &LatentModel, m2: &LatentModel, train2: &[f64], args: &Args, seed: u64) -> Vec<Candidate> {
+/// The pair's candidates (one per `stride`-th training point of M1), and how many of their
+/// x₂ press against M2's bound.
+fn candidates(m1: &LatentModel, m2: &LatentModel, train2: &[f64], args: &Args, seed: u64) -> (Vec<Candidate>, usize) {
     let (q1, d2) = (m1.q(), m2.d());
     let opts = ProjectOptions {
         nearest: args.nearest_starts,
         random: args.random_starts,
         seed,
         scg: ScgOptions { max_iters: args.max_iters, xtol: 1e-6, ftol: 1e-10, ..Default::default() },
+        margin: Some(args.latent_margin),
     };
     let (mut y1, mut y2) = (vec![0.0; m1.d()], vec![0.0; d2]);
-    (0..m1.predictor.n())
+    let mut at_bound = 0;
+    let found: Vec<Candidate> = (0..m1.predictor.n())
         .step_by(args.stride)
         .map(|i| {
             let x1 = m1.predictor.x()[i * q1..(i + 1) * q1].to_vec();
@@ -315,12 +348,14 @@ fn candidates(m1: &LatentModel, m2: &LatentModel, train2: &[f64], args: &Args, s
             m2.map.project(&p1, &mut y2);
             y2.iter_mut().zip(&m2.offset).for_each(|(y, o)| *y -= o);
             let found = best_latent(&m2.predictor, &y2, train2, &opts);
+            at_bound += usize::from(found.at_bound);
             let mut p2 = vec![0.0; m2.controls()];
             m2.controls_into(&found.x, &mut vec![0.0; d2], &mut p2);
             let rig = m2.map.scaled_distance(&p1, &p2);
             Candidate { point: i, x1, x2: found.x, p1, p2, rig }
         })
-        .collect()
+        .collect();
+    (found, at_bound)
 }
 
 /// Runs the stage (or only validates, with `--check`).
@@ -386,7 +421,7 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
             let (m1, m2) = (&models[a], &models[b]);
             let mesh_max = pair_max(&m1.label, &m2.label)?;
             let train2 = train[b].as_deref().unwrap_or_default();
-            let mut cands = candidates(m1, m2, train2, args, pair_seed(args.seed, &m1.label, &m2.label));
+            let (mut cands, at_bound) = candidates(m1, m2, train2, args, pair_seed(args.seed, &m1.label, &m2.label));
             cands.sort_by(|x, y| x.rig.total_cmp(&y.rig));
             let tried = cands.len();
             let mesh_of = |c: &[Candidate]| -> StageResult<Option<Vec<f64>>> {
@@ -400,7 +435,7 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
             };
             let (kept, mesh): (Vec<Candidate>, Option<Vec<f64>>) = match args.threshold {
                 Threshold::Quantile => {
-                    let k = ((args.quantile * tried as f64).round() as usize).clamp(1, tried);
+                    let k = ((args.quantile * tried as f64).round() as usize).clamp(1, tried.max(1)).min(tried);
                     cands.truncate(k);
                     let mesh = mesh_of(&cands)?;
                     (cands, mesh)
@@ -430,6 +465,7 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
                 best: kept.iter().map(|c| c.rig).fold(f64::INFINITY, f64::min),
                 frame_motion: mesh_max.map(|m| m.0).filter(|m| m.is_finite()),
                 max_mesh: mesh_max.map(|m| m.1),
+                at_bound,
             };
             let rows = kept
                 .into_iter()
@@ -457,7 +493,7 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
         counts.push(count);
     }
     bridges::write(&args.io.bridges, &all, models[0].q(), &provenance)?;
-    Ok(Some(Outcome { counts }))
+    Ok(Some(Outcome { counts, labels: models.len() }))
 }
 
 /// The ordered pairs `(from, to)` of model indices to search: every pair, or the one
@@ -495,13 +531,22 @@ mod tests {
             best: 0.5,
             frame_motion: Some(0.25),
             max_mesh: None,
+            at_bound: if kept == 0 { 4 } else { 0 },
         };
-        let text = super::Outcome { counts: vec![pair("b", 3), pair("c", 0)] }.to_string();
+        let text = super::Outcome { counts: vec![pair("b", 3), pair("c", 0)], labels: 3 }.to_string();
         let lines: Vec<&str> = text.lines().collect();
-        assert_eq!(lines.len(), 4, "{text}");
+        assert_eq!(lines.len(), 5, "{text}");
         assert!(lines[0].starts_with("from") && lines[1].starts_with("a            b"), "{text}");
         assert!(lines[1].contains("0.5000") && lines[1].contains("0.2500") && lines[1].trim_end().ends_with('-'));
-        assert_eq!(lines[3], "1 of 2 ordered pairs have no direct bridge (synthesis routes through a third label)");
+        assert!(lines[0].contains("at bound") && lines[2].contains("10        4     0"), "{text}");
+        assert_eq!(
+            lines[3],
+            "1 of 2 ordered pairs have no direct bridge (synthesis routes through a third label where one bridges both)"
+        );
+        assert!(lines[4].starts_with("4 candidate(s) found x2 only at the edge"), "{text}");
+        // Two labels: no third to route through, and the summary says so.
+        let two = super::Outcome { counts: vec![pair("b", 0)], labels: 2 }.to_string();
+        assert!(two.contains("(with two labels there is no third to route through: those transitions fail)"), "{two}");
     }
 
     use super::*;

@@ -165,13 +165,23 @@ pub fn latency_histograms(series: &[(String, Vec<f64>, usize)]) -> String {
     let (lo, hi) = if lo.is_finite() { (0.0_f64.min(lo), hi.max(lo + 1e-9)) } else { (0.0, 1.0) };
     let width = (hi - lo) / bins as f64;
     let h = 40.0 + rh * series.len() as f64 + 30.0;
+    let stats: Vec<String> = series
+        .iter()
+        .map(|(_, v, unanswered)| {
+            let median = reprise_motion_metrics::quantile(v, 0.5);
+            format!("n = {}, median {median:.2} s, never arrived {unanswered}", v.len())
+        })
+        .collect();
+    // The stats sit right of the rows: the picture is as wide as the longest of them
+    // (11-px text, at most 0.62 em a character).
+    let text_w = stats.iter().map(|t| t.chars().count()).max().unwrap_or(0) as f64 * 11.0 * 0.62;
     let mut s = svg_open(
-        rw + 380.0,
+        (150.0 + rw + text_w + 10.0).max(rw + 380.0),
         h,
         "Perceived latency per request (s), by system: histograms of the requests that arrived",
     );
     let sx = scale(lo, hi, 140.0, 140.0 + rw);
-    for (i, (name, v, unanswered)) in series.iter().enumerate() {
+    for (i, (name, v, _)) in series.iter().enumerate() {
         let mut counts = vec![0usize; bins];
         for x in v {
             counts[(((x - lo) / width) as usize).min(bins - 1)] += 1;
@@ -193,14 +203,13 @@ pub fn latency_histograms(series: &[(String, Vec<f64>, usize)]) -> String {
                 lo + (b + 1) as f64 * width
             );
         }
-        let median = reprise_motion_metrics::quantile(v, 0.5);
         let _ = write!(
             s,
-            "<line x1='140' y1='{base}' x2='{}' y2='{base}' stroke='#999'/><text x='{}' y='{}' font-size='11'>n = {}, median {median:.2} s, never arrived {unanswered}</text>",
+            "<line x1='140' y1='{base}' x2='{}' y2='{base}' stroke='#999'/><text x='{}' y='{}' font-size='11'>{}</text>",
             140.0 + rw,
             150.0 + rw,
             base - 20.0,
-            v.len()
+            stats[i]
         );
     }
     let _ = write!(
@@ -374,5 +383,18 @@ mod tests {
         assert!((g[0].1 - (5.5f64 + 4.5e-9).log10()).abs() < 1e-12);
         assert!((g[1].1 - (0.5f64 + 4.5e-9).log10()).abs() < 1e-12);
         assert!((g[2].1 - 4.5e-9f64.log10()).abs() < 1e-12);
+    }
+
+    /// The per-system stats beside the histograms fit inside the picture, however many
+    /// requests there are (they were cut at the right edge: "780" for 7,806).
+    #[test]
+    fn latency_stats_fit_the_picture() {
+        let many: Vec<f64> = (0..11_280).map(|i| f64::from(i % 97) / 24.0).collect();
+        let svg = latency_histograms(&[("motion-matching".into(), many, 12_345)]);
+        let width: f64 = svg.split("width='").nth(1).unwrap().split('\'').next().unwrap().parse().unwrap();
+        let text = "n = 11280, median 2.00 s, never arrived 12345";
+        assert!(svg.contains(text), "{svg}");
+        let x: f64 = svg.split("<text x='").filter_map(|t| t.split('\'').next()?.parse().ok()).fold(0.0, f64::max);
+        assert!(x + text.len() as f64 * 11.0 * 0.6 <= width, "text from {x} overruns the width {width}");
     }
 }

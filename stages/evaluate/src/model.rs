@@ -409,3 +409,65 @@ pub fn quality(m: &[Metric], ctx: &Context<'_>) -> Table {
         rows,
     }
 }
+
+/// The stage's log: one line per system and metric over all pairs (`from = all`), its
+/// value and 95 % CI; a metric without observations (or not finite) reads "not measured"
+/// rather than `NaN`, and a value without a CI has none shown.
+pub struct OverallLines<'a>(pub &'a [Metric]);
+
+impl std::fmt::Display for OverallLines<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for row in self.0.iter().filter(|m| m.from == "all") {
+            write!(f, "{:<9} {:<18} ", row.system, row.metric)?;
+            if row.n == 0 || !row.value.is_finite() {
+                writeln!(f, "not measured (no observations)")?;
+                continue;
+            }
+            write!(f, "{:>10.4}", row.value)?;
+            if let (Some(lo), Some(hi)) = (row.ci_low.filter(|v| v.is_finite()), row.ci_high.filter(|v| v.is_finite()))
+            {
+                write!(f, " [{lo:.4}, {hi:.4}]")?;
+            }
+            writeln!(f, " {}", row.unit)?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod overall_lines_tests {
+    use super::{Metric, OverallLines};
+
+    fn row(system: &str, from: &str, value: f64, ci: Option<(f64, f64)>, n: i64) -> Metric {
+        Metric {
+            system: system.into(),
+            metric: "latency".into(),
+            from: from.into(),
+            to: "all".into(),
+            value,
+            ci_low: ci.map(|c| c.0),
+            ci_high: ci.map(|c| c.1),
+            n,
+            unit: "frames".into(),
+        }
+    }
+
+    /// Only rows over all pairs; a CI where there is one; no `NaN` where nothing was
+    /// measured (a system that answered nothing).
+    #[test]
+    fn the_log_says_not_measured_instead_of_nan() {
+        let rows = [
+            row("reprise", "all", 9.5, Some((8.0, 11.0)), 20),
+            row("reprise", "a", 3.0, None, 5),
+            row("crossfade", "all", 12.0, None, 1),
+            row("motion-graphs", "all", f64::NAN, None, 0),
+        ];
+        let text = OverallLines(&rows).to_string();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 3, "{text}");
+        assert_eq!(lines[0], "reprise   latency                9.5000 [8.0000, 11.0000] frames");
+        assert_eq!(lines[1], "crossfade latency               12.0000 frames");
+        assert_eq!(lines[2], "motion-graphs latency            not measured (no observations)");
+        assert!(!text.contains("NaN"));
+    }
+}

@@ -162,7 +162,7 @@ fn definitions(s: &mut String, ctx: &Context<'_>) {
          the discontinuity window is W = {w} frames, centred on the label switch (moved inside the answer when the switch \
          is near an end); a pose jump is a peak vertex speed above {jr} × the training 99th percentile ({s99:.4} mesh \
          units/s); training 95th percentiles of peak vertex acceleration and jerk: {a95:.4} mesh units/s², {j95:.4} mesh \
-         units/s³; plausibility is measured on every {st}-th frame after the request, in scaled control space as a \
+         units/s³; plausibility is measured on {st} after the request, in scaled control space as a \
          multiple of the median distance between consecutive training frames ({step:.4}) and on the mesh as the RMS \
          vertex distance to the nearest of the {mc} nearest in scaled space, a multiple of the median RMS vertex motion \
          per frame ({ms:.4} mesh units). CIs: 95 % percentile bootstrap of the mean over requests, {res} resamples, \
@@ -176,7 +176,7 @@ fn definitions(s: &mut String, ctx: &Context<'_>) {
         cs = ctx.coverage_seconds,
         a95 = t.acc95,
         j95 = t.jerk95,
-        st = ctx.stride,
+        st = if ctx.stride == 1 { "every frame".to_string() } else { format!("every {} frame", ordinal(ctx.stride)) },
         step = t.step,
         mc = crate::training::MESH_CANDIDATES,
         ms = t.mesh_step,
@@ -184,6 +184,18 @@ fn definitions(s: &mut String, ctx: &Context<'_>) {
         kept = ctx.graph_kept.0,
         all = ctx.graph_kept.1,
     );
+}
+
+/// `n` as an English ordinal: 1st, 2nd, 3rd, 4th, …, 11th, 12th, 13th, 21st.
+pub fn ordinal(n: usize) -> String {
+    let suffix = match (n % 10, n % 100) {
+        (_, 11..=13) => "th",
+        (1, _) => "st",
+        (2, _) => "nd",
+        (3, _) => "rd",
+        _ => "th",
+    };
+    format!("{n}{suffix}")
 }
 
 #[cfg(test)]
@@ -312,5 +324,11 @@ pub(crate) mod tests {
             let md = markdown(&m, ctx);
             assert!(md.contains("on the requests both answered Motion Graphs is ahead"), "{md}");
         });
+    }
+
+    #[test]
+    fn ordinals_read_as_english() {
+        let got: Vec<String> = [1, 2, 3, 4, 11, 12, 13, 21, 22, 101, 111].into_iter().map(super::ordinal).collect();
+        assert_eq!(got, ["1st", "2nd", "3rd", "4th", "11th", "12th", "13th", "21st", "22nd", "101st", "111th"]);
     }
 }

@@ -81,6 +81,15 @@ pub(crate) fn bvh(
                 paths[0].display()
             ));
         }
+        if let Some((joint, gap)) = first.as_ref().and_then(|f| f.offset_gap(&parsed)) {
+            eprintln!(
+                "ingest: {}: OFFSETs differ from {}'s by up to {gap:.4} (`{joint}`), within {} % of the largest: \
+                 one skeleton, posed with the first take's OFFSETs",
+                path.display(),
+                paths[0].display(),
+                reprise_bvh::OFFSET_TOLERANCE * 100.0
+            );
+        }
         let curves = reprise_bvh::resample_limited(&parsed, &stem, fps, budget).map_err(|e| e.to_string())?;
         budget -= curves.frames;
         if controls.is_empty() {

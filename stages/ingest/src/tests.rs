@@ -321,3 +321,12 @@ fn several_bvh_takes_are_one_source() {
     let e = run(&a).unwrap_err().to_string();
     assert!(e.contains("two takes named `walk`"), "{e}");
 }
+
+/// `reprise-ingest --help` names every source it reads.
+#[test]
+fn the_help_names_every_source() {
+    let about = <Args as clap::CommandFactory>::command().get_about().map(ToString::to_string).unwrap_or_default();
+    for source in ["dragon-face", "curve table", "glTF", "BVH"] {
+        assert!(about.contains(source), "{about}");
+    }
+}

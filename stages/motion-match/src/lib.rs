@@ -175,12 +175,29 @@ impl Corpus {
         z.iter().zip(&self.weight).map(|(z, w)| z / w).collect()
     }
 
+    /// Why a request failed, the label named (the matching library knows labels by index).
+    fn why(&self, e: MatchError) -> String {
+        let name = |l: u32| self.labels.get(l as usize).map_or_else(|| l.to_string(), |n| format!("`{n}`"));
+        match e {
+            MatchError::NoSearchableFrames { label, needed } => format!(
+                "label {} has no frame to jump to: a frame needs {needed} frames of continuation in its segment, \
+                 and its segments are shorter",
+                name(label)
+            ),
+            MatchError::DeadEnd { frame, label } => format!(
+                "playback reached the end of its segment at frame {frame} and no frame of label {} could take over",
+                name(label)
+            ),
+            e => e.to_string(),
+        }
+    }
+
     /// A playback as an answer: the start frame (asked), then the output up to `after`
     /// frames past the first frame of B; none if B was not reached.
     fn reply(&self, start: usize, out: Result<Playback, MatchError>, after: usize, to: &str) -> Reply {
         let out = match out {
             Ok(p) => p,
-            Err(e) => return (Answer::failed(e.to_string()), vec![]),
+            Err(e) => return (Answer::failed(self.why(e)), vec![]),
         };
         let Some(l) = out.latency else {
             return (Answer::failed(format!("did not reach `{to}` within the time-out")), vec![]);
@@ -366,6 +383,19 @@ mod tests {
             // Asked for its own label: reached at once.
             assert!(a.get(1).unwrap().latency.is_some());
         }
+    }
+
+    /// A label whose segments are too short to jump into fails the crossfade's requests,
+    /// saying so by the label's name (not the library's index).
+    #[test]
+    fn a_label_too_short_to_serve_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut args = write_inputs(dir.path(), &[request(0, "b", 0, 10)]);
+        args.blend_frames = 61;
+        run(&args).unwrap();
+        let a = transitions::read_answers(&args.io.crossfade_answers).unwrap();
+        let why = &a.get(0).unwrap().error;
+        assert!(why.contains("label `b` has no frame to jump to: a frame needs 61 frames"), "{why}");
     }
 
     /// A request starting at a frame the labeled frames do not have is refused, naming it.

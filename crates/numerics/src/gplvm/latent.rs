@@ -144,6 +144,14 @@ pub struct ProjectOptions {
     /// The optimiser of each start (default: 100 iterations, tolerances $10^{-6}$ on $x$
     /// and $10^{-10}$ on the squared error).
     pub scg: ScgOptions,
+    /// Where the search may go. `Some(m)`: inside the training latents' bounding box
+    /// widened by `m` times its extent on each side (`m = 0.25`: a box 1.5 × the latents'
+    /// extent), by searching $u$ with $x = c + h\tanh u$ per dimension ($c$ the box's
+    /// centre, $h$ its half-width), so a result never leaves it; a result pressed against
+    /// the bound is counted ([`Projection::at_bound`]). Far from its latents a GP's mean
+    /// reverts to the output mean, so an unbounded search can "match" a pose near the mean
+    /// at a point the model knows nothing of. `None` (the default): anywhere.
+    pub margin: Option<f64>,
 }
 
 impl Default for ProjectOptions {
@@ -153,6 +161,7 @@ impl Default for ProjectOptions {
             random: 2,
             seed: 0,
             scg: ScgOptions { max_iters: 100, xtol: 1e-6, ftol: 1e-10, ..Default::default() },
+            margin: None,
         }
     }
 }
@@ -166,6 +175,10 @@ pub struct Projection {
     pub sq_error: f64,
     /// Objective evaluations over all starts.
     pub evaluations: usize,
+    /// Whether the best point found presses against the bound of
+    /// [`ProjectOptions::margin`] (within $10^{-6}$ of its half-width): the search wanted
+    /// to go farther from the latents.
+    pub at_bound: bool,
 }
 
 /// The latent point minimising $E(x) = \lVert y - \mu(x)\rVert^2$ for the target output
@@ -194,33 +207,89 @@ pub fn best_latent(predictor: &MeanPredictor, y: &[f64], train_y: &[f64], opts: 
     for _ in 0..opts.random {
         starts.push((0..q).map(|c| if hi[c] > lo[c] { rng.gen_range(lo[c]..hi[c]) } else { lo[c] }).collect());
     }
-    let (mut mu, mut jac) = (vec![0.0; d], vec![0.0; d * q]);
     let mut evaluations = 0;
-    let mut best = Projection { x: starts[0].clone(), sq_error: f64::INFINITY, evaluations: 0 };
+    // The search variable: x itself, or u with x = c + h tanh(u) inside the widened box.
+    let bounds: Option<Bounds> = opts.margin.map(|m| Bounds {
+        centre: (0..q).map(|c| 0.5 * (lo[c] + hi[c])).collect(),
+        half: (0..q).map(|c| ((0.5 + m) * (hi[c] - lo[c])).max(1e-9)).collect(),
+    });
+    let mut scratch = Scratch { x: vec![0.0; q], mu: vec![0.0; d], jac: vec![0.0; d * q] };
+    let mut best = Projection { x: starts[0].clone(), sq_error: f64::INFINITY, evaluations: 0, at_bound: false };
     for s in &starts {
+        let start = bounds.as_ref().map_or_else(|| s.clone(), |b| b.to_u(s));
         let r = scg(
-            |x, g| {
+            |u, g| {
                 evaluations += 1;
-                predictor.mean_jacobian(x, &mut mu, &mut jac);
-                g.fill(0.0);
-                let mut e = 0.0;
-                for j in 0..d {
-                    let r = y[j] - mu[j];
-                    e += r * r;
-                    g.iter_mut().zip(&jac[j * q..(j + 1) * q]).for_each(|(g, jk)| *g -= 2.0 * r * jk);
-                }
-                e
+                search_error(predictor, y, bounds.as_ref(), u, g, &mut scratch)
             },
-            s,
+            &start,
             &opts.scg,
         );
         if r.info.value < best.sq_error {
-            best.x = r.x;
+            best.x = bounds.as_ref().map_or_else(|| r.x.clone(), |b| b.to_x(&r.x));
+            best.at_bound = bounds.is_some() && r.x.iter().any(|u| 1.0 - u.tanh().abs() < 1e-6);
             best.sq_error = r.info.value;
         }
     }
     best.evaluations = evaluations;
     best
+}
+
+/// The box [`best_latent`] searches with a margin: $x = c + h\tanh u$ per dimension.
+struct Bounds {
+    centre: Vec<f64>,
+    half: Vec<f64>,
+}
+
+impl Bounds {
+    fn to_x(&self, u: &[f64]) -> Vec<f64> {
+        u.iter().zip(self.centre.iter().zip(&self.half)).map(|(u, (c, h))| c + h * u.tanh()).collect()
+    }
+
+    /// The search variable of `x` (a point on the bound is moved just inside).
+    fn to_u(&self, x: &[f64]) -> Vec<f64> {
+        x.iter()
+            .zip(self.centre.iter().zip(&self.half))
+            .map(|(x, (c, h))| ((x - c) / h).clamp(-1.0 + 1e-9, 1.0 - 1e-9).atanh())
+            .collect()
+    }
+}
+
+/// Work space of [`search_error`].
+struct Scratch {
+    x: Vec<f64>,
+    mu: Vec<f64>,
+    jac: Vec<f64>,
+}
+
+/// $E = \lVert y - \mu(x)\rVert^2$ at the search variable `u` ($x = u$ without bounds)
+/// and its gradient in `g`: $\nabla_x E = -2\,(\partial\mu/\partial x)^\top(y - \mu)$, times
+/// $dx/du = h(1 - \tanh^2 u)$ with bounds.
+fn search_error(
+    predictor: &MeanPredictor,
+    y: &[f64],
+    bounds: Option<&Bounds>,
+    u: &[f64],
+    g: &mut [f64],
+    s: &mut Scratch,
+) -> f64 {
+    let q = u.len();
+    match bounds {
+        None => s.x.copy_from_slice(u),
+        Some(b) => s.x = b.to_x(u),
+    }
+    predictor.mean_jacobian(&s.x, &mut s.mu, &mut s.jac);
+    g.fill(0.0);
+    let mut e = 0.0;
+    for (j, yj) in y.iter().enumerate() {
+        let r = yj - s.mu[j];
+        e += r * r;
+        g.iter_mut().zip(&s.jac[j * q..(j + 1) * q]).for_each(|(g, jk)| *g -= 2.0 * r * jk);
+    }
+    if let Some(b) = bounds {
+        g.iter_mut().zip(u.iter().zip(&b.half)).for_each(|(g, (u, h))| *g *= h * (1.0 - u.tanh().powi(2)));
+    }
+    e
 }
 
 #[cfg(test)]
@@ -265,5 +334,55 @@ mod tests {
         let scale: f64 = target.iter().map(|v| v * v).sum();
         assert!(found.sq_error < 1e-10 * scale, "{found:?}");
         assert!(found.evaluations > 5);
+    }
+
+    /// A target near the output mean is matched best far from the latents, where the
+    /// mean reverts to it: unbounded, the search goes there; with a margin it stops at the
+    /// widened box's edge, saying so.
+    #[test]
+    fn a_margin_keeps_the_result_near_the_latents() {
+        // Outputs far from zero along a line of latents in [-1, 1]: the mean is ≈ 3 + x
+        // there and reverts to 0 (the centred output mean) far away.
+        let n = 21;
+        let x: Vec<f64> = (0..n).map(|i| -1.0 + 2.0 * i as f64 / (n - 1) as f64).collect();
+        let y: Vec<f64> = x.iter().map(|v| 3.0 + v).collect();
+        let hyper = Hyper { rbf_variance: 1.0, lengthscale: 0.5, white_variance: 1e-4 };
+        let p = Predictor::new(&x, &y, 1, hyper, &LikelihoodConfig::default()).unwrap();
+        let target = [0.05];
+        let free = ProjectOptions { nearest: 3, random: 2, ..Default::default() };
+        let far = best_latent(&p, &target, &y, &free);
+        assert!(far.x[0].abs() > 1.5, "the unbounded search leaves the latents: {far:?}");
+        let bounded = best_latent(&p, &target, &y, &ProjectOptions { margin: Some(0.25), ..free });
+        assert!(bounded.x[0].abs() <= 1.5 + 1e-12 && bounded.x[0].abs() > 1.4, "{bounded:?}");
+        assert!(bounded.at_bound && !far.at_bound, "{bounded:?}");
+        assert!(bounded.sq_error > far.sq_error);
+        // A target the model reaches inside the box is found there, not at the bound.
+        let mut inner = [0.0];
+        p.mean(&[0.3], &mut inner);
+        let found = best_latent(&p, &inner, &y, &ProjectOptions { margin: Some(0.25), ..free });
+        assert!((found.x[0] - 0.3).abs() < 1e-4 && !found.at_bound, "{found:?}");
+    }
+
+    /// The bounded search's gradient in u equals central differences (and without bounds
+    /// in x).
+    #[test]
+    fn search_gradient_matches_finite_differences() {
+        let (n, d, q) = (25, 4, 2);
+        let (x, y) = random_problem(n, d, q, 5);
+        let hyper = Hyper { rbf_variance: 1.0, lengthscale: 0.7, white_variance: 1e-3 };
+        let p = Predictor::new(&x, &y, d, hyper, &LikelihoodConfig::default()).unwrap();
+        let target = [0.3, -0.1, 0.7, 0.2];
+        let bounds = Bounds { centre: vec![0.1, -0.2], half: vec![1.3, 0.9] };
+        let mut s = Scratch { x: vec![0.0; q], mu: vec![0.0; d], jac: vec![0.0; d * q] };
+        for b in [None, Some(&bounds)] {
+            let at = [0.4, -0.8];
+            let mut g = [0.0; 2];
+            search_error(&p, &target, b, &at, &mut g, &mut s);
+            let fd = central_diff(&at, 1e-5, |u| {
+                let mut s = Scratch { x: vec![0.0; q], mu: vec![0.0; d], jac: vec![0.0; d * q] };
+                search_error(&p, &target, b, u, &mut [0.0; 2], &mut s)
+            });
+            assert!(max_rel_err(&g, &fd) < 1e-6, "{g:?} {fd:?}");
+        }
     }
 }
