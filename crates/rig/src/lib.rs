@@ -40,6 +40,11 @@ pub trait Rig: Send + Sync {
     fn vertex_count(&self) -> usize;
     /// Triangles, where the rig has them (empty for skeletons).
     fn triangles(&self) -> &[[u32; 3]];
+    /// Bones, where the rig is a skeleton: pairs of vertices (parent joint, child joint or
+    /// end site), so that a skeleton without triangles can still be drawn.
+    fn bones(&self) -> Vec<[u32; 2]> {
+        Vec::new()
+    }
     /// Evaluates `poses` (row-major, one pose per `control_names().len()` values) into
     /// `out` (row-major, `3 · vertex_count()` values per pose).
     fn evaluate_batch(&self, poses: &[f64], out: &mut [f64]) -> Result<(), RigError>;

@@ -15,6 +15,10 @@ pub trait PoseEvaluator: Send + Sync {
     fn vertex_count(&self) -> usize;
     /// Triangles (empty for skeletons).
     fn triangles(&self) -> &[[u32; 3]];
+    /// Bones (pairs of vertices), for a skeleton.
+    fn bones(&self) -> Vec<[u32; 2]> {
+        Vec::new()
+    }
     /// Positions of one pose into `out` (`3 · vertex_count()` values).
     fn evaluate_pose(&self, pose: &[f64], out: &mut [f64]);
 }
@@ -51,6 +55,9 @@ impl<E: PoseEvaluator> Rig for Local<E> {
     }
     fn triangles(&self) -> &[[u32; 3]] {
         self.inner.triangles()
+    }
+    fn bones(&self) -> Vec<[u32; 2]> {
+        self.inner.bones()
     }
     fn evaluate_batch(&self, poses: &[f64], out: &mut [f64]) -> Result<(), RigError> {
         par_batch(self, poses, out, |p, o| self.inner.evaluate_pose(p, o))

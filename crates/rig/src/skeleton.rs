@@ -59,6 +59,9 @@ impl PoseEvaluator for BvhRig {
     fn triangles(&self) -> &[[u32; 3]] {
         BvhRig::triangles(self)
     }
+    fn bones(&self) -> Vec<[u32; 2]> {
+        BvhRig::bones(self).into_iter().map(|(a, b)| [a, b]).collect()
+    }
     fn evaluate_pose(&self, pose: &[f64], out: &mut [f64]) {
         self.evaluate(pose, out);
     }

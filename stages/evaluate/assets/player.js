@@ -27,7 +27,7 @@
   var codes = new Int16Array(buf, off, enc.frames * K);
   var basis = new Float32Array(K * dim);
   for (var r = 0; r < K; r++) for (var j = 0; j < dim; j++) basis[r * dim + j] = basisQ[r * dim + j] * bscale[r];
-  var tris = D.triangles;
+  var tris = D.triangles, bones = D.bones || [];
   var V = dim / 3;
 
   function decode(t, out) {
@@ -94,7 +94,25 @@
         }
       }
       ctx.putImageData(img, 0, 0);
+      if (tris.length === 0) sticks(ctx, px, py, mesh, tint, Math.max(1.5, 0.012 * Math.min(w, h)));
     };
+  }
+
+  // A rig without triangles: its bones as round-capped sticks (a skeleton), else every
+  // point as a dot; back to front by depth (larger z is nearer, as in the z-buffer).
+  function sticks(ctx, px, py, mesh, tint, r) {
+    var segs = [], i;
+    if (bones.length) for (i = 0; i < bones.length; i += 2) segs.push([bones[i], bones[i + 1]]);
+    else for (i = 0; i < V; i++) segs.push([i, i]);
+    segs.sort(function (p, q) {
+      return (mesh[3 * p[0] + 2] + mesh[3 * p[1] + 2]) - (mesh[3 * q[0] + 2] + mesh[3 * q[1] + 2]);
+    });
+    ctx.lineCap = "round"; ctx.lineWidth = 2 * r;
+    ctx.strokeStyle = "rgb(" + Math.round(tint[0] * 204) + "," + Math.round(tint[1] * 204) + "," + Math.round(tint[2] * 204) + ")";
+    for (i = 0; i < segs.length; i++) {
+      var a = segs[i][0], b = segs[i][1];
+      ctx.beginPath(); ctx.moveTo(px[a], py[a]); ctx.lineTo(px[b] + (a === b ? 0.01 : 0), py[b]); ctx.stroke();
+    }
   }
 
   function wrap(ctx, text, x, y, width, lh) {

@@ -208,6 +208,7 @@ fn synthetic(dir: &Path) -> PathBuf {
         fps: 24.0,
         bounds: [-1.0, -1.2, 1.0, 1.2],
         triangles: sheet_triangles().into_iter().flatten().collect(),
+        bones: vec![],
         mesh_step: 0.05,
         encoded,
     };
@@ -229,7 +230,7 @@ fn synthetic(dir: &Path) -> PathBuf {
         latent_bridges: vec![(0, [0.0, 0.0], 0, [1.0, 1.0])],
         bridges: vec![("a → b".into(), sheet(0.0), sheet(1.0))],
         filmstrip: None,
-        triangles: &tris,
+        shape: crate::render::Shape { triangles: tris, bones: vec![] },
         camera_mesh: &cam,
         speed: vec![("reprise".into(), vec![-1, 0, 1], vec![0.1, 0.2, 0.1])],
         latencies: vec![("reprise".into(), vec![0.3, 0.4, 0.5], 0), ("Motion Graphs".into(), vec![1.0], 2)],

@@ -132,7 +132,7 @@ pub fn figures<'a>(inp: Inputs<'a>, provenance: &reprise_artifact::Provenance) -
         latent_bridges,
         bridges: bridge_figs,
         filmstrip,
-        triangles: inp.rig.0.triangles(),
+        shape: crate::render::Shape::of(inp.rig.0.as_ref()),
         camera_mesh: inp.camera_mesh,
         speed: inp.speed,
         latencies,

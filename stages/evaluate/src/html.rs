@@ -20,7 +20,7 @@ use crate::encode::Encoded;
 use crate::measure::{Phase, PlausibilityReference as Reference, Space};
 use crate::model;
 use crate::player::{Player, PHASES};
-use crate::render::{png, render, Camera};
+use crate::render::{png, render, Camera, Shape};
 use crate::report;
 use crate::Metric;
 
@@ -74,8 +74,8 @@ pub struct Page<'a> {
     pub bridges: Vec<(String, Vec<f64>, Vec<f64>)>,
     /// Filmstrip: (caption, per frame (label, mesh)).
     pub filmstrip: Option<(String, Vec<Picture>)>,
-    /// Triangles of the rig's mesh.
-    pub triangles: &'a [[u32; 3]],
+    /// What the pictures draw of the rig's vertices.
+    pub shape: Shape,
     /// A mesh that fixes the camera (a training pose).
     pub camera_mesh: &'a [f64],
     /// Mean peak vertex speed around transitions: (system, offsets from the first target
@@ -357,6 +357,14 @@ fn player(s: &mut String, p: Option<&Player>) {
     if let Some(e) = &p.encoded {
         *s += &encoding_note(e, p.mesh_step);
     }
+    if p.triangles.is_empty() {
+        let what = if p.bones.is_empty() {
+            "the rig gives neither triangles nor bones, so the panels draw its points as dots"
+        } else {
+            "the rig is a skeleton without triangles, so the panels draw its bones as sticks"
+        };
+        let _ = write!(s, "<p class='note'>{what}.</p>");
+    }
     *s += &player_box("transition-player", "request");
     *s += "<h3>Synthesized scripts</h3><p>The synthesize stage's scripts (the <code>curves</code> input), played \
            with the model and command that produced each frame and the particle's latent point.</p>";
@@ -412,8 +420,8 @@ fn embed(s: &mut String, p: &Player) {
     );
 }
 
-fn image(cam: &Camera, mesh: &[f64], tris: &[[u32; 3]], tint: [f64; 3], size: usize, caption: &str) -> String {
-    let rgb = render(cam, mesh, tris, tint);
+fn image(cam: &Camera, mesh: &[f64], shape: &Shape, tint: [f64; 3], size: usize, caption: &str) -> String {
+    let rgb = render(cam, mesh, shape, tint);
     let (w, h) = cam.size();
     let b64 = base64::engine::general_purpose::STANDARD.encode(png(&rgb, w, h));
     format!("<figure><img alt='{c}' width='{size}' height='{size}' src='data:image/png;base64,{b64}'/><figcaption>{c}</figcaption></figure>", c = esc(caption))
@@ -472,11 +480,16 @@ fn figures(s: &mut String, p: &Page<'_>, m: &[Metric], ctx: &report::Context<'_>
         charts::latents_with_bridges(&p.latents, &p.latent_bridges)
     );
     let cam = Camera::fit(&[p.camera_mesh], 280, 280);
-    *s += "<h3>Bridge poses (Fig. 3)</h3><p>The closest bridges: M1's pose at x1 and M2's at x2, rendered through the rig.</p><div class='row' id='bridges'>";
+    let _ = write!(
+        s,
+        "<h3>Bridge poses (Fig. 3)</h3><p>The closest bridges: M1's pose at x1 and M2's at x2, rendered through the \
+         rig ({}).</p><div class='row' id='bridges'>",
+        p.shape.drawn_as()
+    );
     for (caption, a, b) in &p.bridges {
         *s += "<div class='row'>";
-        *s += &image(&cam, a, p.triangles, [0.85, 0.6, 0.45], 280, &format!("{caption} — from"));
-        *s += &image(&cam, b, p.triangles, [0.45, 0.6, 0.85], 280, &format!("{caption} — to"));
+        *s += &image(&cam, a, &p.shape, [0.85, 0.6, 0.45], 280, &format!("{caption} — from"));
+        *s += &image(&cam, b, &p.shape, [0.45, 0.6, 0.85], 280, &format!("{caption} — to"));
         *s += "</div>";
     }
     *s += "</div>";
@@ -485,7 +498,7 @@ fn figures(s: &mut String, p: &Page<'_>, m: &[Metric], ctx: &report::Context<'_>
         let _ =
             write!(s, "<h3>Synthesized sequence (Fig. 4)</h3><p>{}</p><div class='row' id='filmstrip'>", esc(caption));
         for (label, mesh) in frames {
-            *s += &image(&cam, mesh, p.triangles, [0.8, 0.7, 0.55], 120, label);
+            *s += &image(&cam, mesh, &p.shape, [0.8, 0.7, 0.55], 120, label);
         }
         *s += "</div>";
     }

@@ -105,6 +105,9 @@ pub struct Player {
     pub bounds: [f64; 4],
     /// Triangles (flattened).
     pub triangles: Vec<u32>,
+    /// Bones (flattened pairs), drawn as sticks where there are no triangles (a
+    /// skeleton); with neither, the player draws every point as a dot.
+    pub bones: Vec<u32>,
     /// Training median RMS vertex motion per frame (mesh units), for scale.
     pub mesh_step: f64,
     /// The encoded meshes (embedded separately as base64).
@@ -263,6 +266,7 @@ pub fn build(inp: &Inputs<'_>) -> StageResult<Player> {
         fps: inp.training.fps,
         bounds,
         triangles: inp.rig.0.triangles().iter().flatten().copied().collect(),
+        bones: inp.rig.0.bones().into_iter().flatten().collect(),
         mesh_step: inp.training.mesh_step,
         encoded,
     };
