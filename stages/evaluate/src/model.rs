@@ -400,14 +400,36 @@ pub fn quality(m: &[Metric], ctx: &Context<'_>) -> Table {
             row
         })
         .collect();
-    Table {
-        id: "quality",
-        title: "Model quality (RMS vertex error, mesh units): held-out frames, every basis fitted without them; the \
-                generative check; the scaling ablation"
-            .into(),
-        head,
-        rows,
+    let mut title = "Model quality (RMS vertex error, mesh units): held-out frames, every basis fitted without them; \
+                     the generative check; the scaling ablation"
+        .to_string();
+    let flat = no_better_than_pca(m, ctx.labels);
+    if !flat.is_empty() {
+        title += &format!(
+            ". On held-out frames the GPLVM is no better than PCA with as many dimensions (within {:.0} %) for {}: there \
+             its latent space adds nothing over a linear one",
+            100.0 * (1.0 - NO_BETTER),
+            flat.join(", ")
+        );
     }
+    Table { id: "quality", title, head, rows }
+}
+
+/// The GPLVM is "no better than PCA" on a label when its held-out error is at least this
+/// share of PCA-q's.
+pub const NO_BETTER: f64 = 0.99;
+
+/// The labels whose held-out GPLVM error is at least [`NO_BETTER`] × that of PCA with q
+/// dimensions (labels without both are left out).
+pub fn no_better_than_pca<'a>(m: &[Metric], labels: &'a [String]) -> Vec<&'a str> {
+    labels
+        .iter()
+        .filter(|l| {
+            let at = |sys: &str| find(m, sys, "heldout_mesh_rmse", l, "").map(|x| x.value).filter(|v| v.is_finite());
+            matches!((at("gplvm"), at("pca-q")), (Some(g), Some(p)) if g >= NO_BETTER * p)
+        })
+        .map(String::as_str)
+        .collect()
 }
 
 /// The stage's log: one line per system and metric over all pairs (`from = all`), its
@@ -431,6 +453,40 @@ impl std::fmt::Display for OverallLines<'_> {
             writeln!(f, " {}", row.unit)?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod quality_tests {
+    use super::{no_better_than_pca, Metric};
+
+    fn heldout(system: &str, label: &str, value: f64) -> Metric {
+        Metric {
+            system: system.into(),
+            metric: "heldout_mesh_rmse".into(),
+            from: label.into(),
+            to: String::new(),
+            value,
+            ci_low: None,
+            ci_high: None,
+            n: 10,
+            unit: "mesh units".into(),
+        }
+    }
+
+    /// A label whose GPLVM matches PCA-q on held-out frames (a long mocap take: 0.0139
+    /// and 0.0139) is named; a clearly better GPLVM, or a label without both, is not.
+    #[test]
+    fn a_gplvm_no_better_than_pca_is_named() {
+        let m = [
+            heldout("gplvm", "take", 0.0139),
+            heldout("pca-q", "take", 0.0139),
+            heldout("gplvm", "face", 0.010),
+            heldout("pca-q", "face", 0.020),
+            heldout("gplvm", "lone", 0.5),
+        ];
+        let labels = ["take", "face", "lone"].map(String::from);
+        assert_eq!(no_better_than_pca(&m, &labels), ["take"]);
     }
 }
 

@@ -161,6 +161,7 @@ impl<'a> Checker<'a> {
         config: &FitConfig,
         every: usize,
         bar: &ProgressBar,
+        name: &str,
     ) -> StageResult<Heldout> {
         let numerical = |what: &str, e: &dyn std::fmt::Display| {
             StageError::Numerical(format!("label `{}`: held-out check: {what}: {e}", l.label))
@@ -181,7 +182,7 @@ impl<'a> Checker<'a> {
 
         // 2. The GPLVM of the training frames, mapped to the rig through that basis.
         let train_data = coords.subset(&train);
-        let fit = fit_label(&train_data, config, bar)?;
+        let fit = fit_label(&train_data, config, bar, name)?;
         let map = scaling.rig_map(&scaling.pca_model(&basis, SCALED))?;
         let model = LatentModel::new(l.label.clone(), fit.predictor.clone(), fit.offset.clone(), map)
             .map_err(|e| numerical("model", &e))?;
@@ -362,7 +363,7 @@ mod tests {
             let files = ["--coords", "c", "--labeled-frames", "f", "--latents", "l", "--models", "m", "--trace", "t"];
             let flags = ["--fits", "s", "--q", &q, "--max-iters", "400"];
             let args = Args::try_parse_from(["reprise-gplvm"].into_iter().chain(files).chain(flags)).unwrap();
-            checker.check(&self.label, &args.fit_config(), every, &ProgressBar::hidden()).unwrap()
+            checker.check(&self.label, &args.fit_config(), every, &ProgressBar::hidden(), "test").unwrap()
         }
     }
 

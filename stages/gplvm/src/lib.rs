@@ -437,11 +437,17 @@ fn gather(coords: &pca::PcaCoords, fps: f64, path: &std::path::Path) -> StageRes
     Ok(out)
 }
 
-/// Fits one label, reporting each evaluation and its objective to `bar`.
-pub(crate) fn fit_label(data: &LabelData, config: &FitConfig, bar: &reprise_stagekit::ProgressBar) -> StageResult<Fit> {
+/// Fits one label, reporting each evaluation and its objective to `bar` as `name` (the
+/// label, or the label's held-out refit: each fit has a bar of its own).
+pub(crate) fn fit_label(
+    data: &LabelData,
+    config: &FitConfig,
+    bar: &reprise_stagekit::ProgressBar,
+    name: &str,
+) -> StageResult<Fit> {
     let report = |objective: f64| {
         bar.inc(1);
-        bar.set_message(format!("{} objective {objective:.1}", data.label));
+        bar.set_message(format!("{name} objective {objective:.1}"));
     };
     let fit = reprise_numerics::gplvm::fit(data.fit_data(), config, report).map_err(|e| {
         StageError::Numerical(format!("label `{}` ({} frames, d = {}): {e}", data.label, data.n(), data.d))
@@ -480,17 +486,26 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
             .map(|l| {
                 // A fit stops when it converges: the bar counts evaluations, with no total.
                 let bar = reprise_stagekit::counter_in(&multi, &l.label, "objective evaluations");
+                let held_name = format!("{} held-out refit", l.label);
+                let held_bar =
+                    checker.as_ref().map(|_| reprise_stagekit::counter_in(&multi, &held_name, "objective evaluations"));
                 // The fit and the held-out refit are independent: two tasks, so that the
                 // largest label's pair can take both cores.
                 let (fit, held) = rayon::join(
                     || {
                         let start = Instant::now();
-                        fit_label(l, &config, &bar).map(|f| (f, start.elapsed().as_secs_f64()))
+                        fit_label(l, &config, &bar, &l.label).map(|f| (f, start.elapsed().as_secs_f64()))
                     },
-                    || checker.as_ref().map(|c| c.check(l, &config, args.heldout_every, &bar)).transpose(),
+                    || {
+                        let (c, b) = (checker.as_ref()?, held_bar.as_ref()?);
+                        Some(c.check(l, &config, args.heldout_every, b, &held_name))
+                    },
                 );
-                let ((fit, seconds), held) = (fit?, held?);
+                let ((fit, seconds), held) = (fit?, held.transpose()?);
                 bar.finish_and_clear();
+                if let Some(b) = &held_bar {
+                    b.finish_and_clear();
+                }
                 let summary = FitSummary {
                     label: l.label.clone(),
                     frames: l.n() as i64,
