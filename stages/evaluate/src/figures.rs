@@ -177,17 +177,17 @@ pub fn missing(systems: &[System], requests: &[Request], labels: &[String]) -> V
         ));
     }
     let mut none = Vec::new();
-    let mut unanswered: Vec<Vec<String>> = vec![Vec::new(); systems.len()];
+    let mut unanswered: Vec<Vec<(&str, &str)>> = vec![Vec::new(); systems.len()];
     for a in labels {
         for b in labels.iter().filter(|b| *b != a) {
             let reqs: Vec<&Request> = requests.iter().filter(|r| &r.from == a && &r.to == b).collect();
             if reqs.is_empty() {
-                none.push(format!("{a} → {b}"));
+                none.push((a.as_str(), b.as_str()));
                 continue;
             }
             for (s, u) in systems.iter().zip(&mut unanswered) {
                 if !reqs.iter().any(|r| s.answered(r)) {
-                    u.push(format!("{a} → {b}"));
+                    u.push((a.as_str(), b.as_str()));
                 }
             }
         }
@@ -197,13 +197,36 @@ pub fn missing(systems: &[System], requests: &[Request], labels: &[String]) -> V
             "{} answered none of the requests of {} label pairs (the player shows them as “no answer”): {}.",
             s.shown,
             u.len(),
-            u.join(", ")
+            pair_list(u)
         ));
     }
     if !none.is_empty() {
-        out.push(format!("No requests for {} of the label pairs: {}.", none.len(), none.join(", ")));
+        out.push(format!("No requests for {} of the label pairs: {}.", none.len(), pair_list(&none)));
     }
     out
+}
+
+/// The most pairs a note names one by one.
+const PAIRS_NAMED: usize = 12;
+
+/// `pairs` as `a → b, …`: all of them when few; else the first [`PAIRS_NAMED`], how many
+/// more, and the target labels most of them go to (so that dozens of labels do not make
+/// a wall of names).
+fn pair_list(pairs: &[(&str, &str)]) -> String {
+    let named: Vec<String> = pairs.iter().take(PAIRS_NAMED).map(|(a, b)| format!("{a} → {b}")).collect();
+    if pairs.len() <= PAIRS_NAMED {
+        return named.join(", ");
+    }
+    let mut into: Vec<(&str, usize)> = Vec::new();
+    for (_, b) in pairs {
+        match into.iter_mut().find(|(l, _)| l == b) {
+            Some((_, n)) => *n += 1,
+            None => into.push((b, 1)),
+        }
+    }
+    into.sort_by(|x, y| y.1.cmp(&x.1).then(x.0.cmp(y.0)));
+    let most: Vec<String> = into.iter().take(5).map(|(l, n)| format!("into `{l}` {n}")).collect();
+    format!("{}, … and {} more (most: {})", named.join(", "), pairs.len() - PAIRS_NAMED, most.join(", "))
 }
 
 /// Per label (in file order) the objective by iteration, from a `gplvm_trace` table.
@@ -288,18 +311,72 @@ fn machine() -> String {
     format!("{model}, {cores} cores")
 }
 
-/// `seconds <stage>` lines from the runner's lock file (its stage entries' `seconds`).
+/// Per stage of the run's lock file (JSON): its seconds, and for a partitioned stage one
+/// line summing its partitions (how many, their seconds in all, the longest named) — a
+/// line per partition would be thousands with dozens of labels. A lock that does not
+/// read as JSON gives nothing.
 fn stage_times(lock: &str) -> Vec<(String, String)> {
+    let Ok(lock) = serde_json::from_str::<serde_json::Value>(lock) else { return Vec::new() };
+    let Some(stages) = lock.get("stages").and_then(|s| s.as_object()) else { return Vec::new() };
     let mut out = Vec::new();
-    let mut current: Option<String> = None;
-    for line in lock.lines() {
-        let t = line.trim();
-        if line.starts_with("    \"") && !line.starts_with("     ") && t.ends_with('{') {
-            current = t.split('"').nth(1).map(str::to_string);
+    for (stage, entry) in stages {
+        if let Some(seconds) = entry.get("seconds").and_then(serde_json::Value::as_f64) {
+            out.push((format!("seconds {stage}"), format!("{seconds:.2}")));
         }
-        if let (Some(stage), Some(v)) = (&current, t.strip_prefix("\"seconds\":")) {
-            out.push((format!("seconds {stage}"), v.trim().trim_end_matches(',').to_string()));
+        let parts: Vec<(&String, f64)> = entry
+            .get("partitions")
+            .and_then(|p| p.as_object())
+            .map(|p| p.iter().filter_map(|(name, r)| Some((name, r.get("seconds")?.as_f64()?))).collect())
+            .unwrap_or_default();
+        if let Some((longest, most)) = parts.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
+            let total: f64 = parts.iter().map(|p| p.1).sum();
+            out.push((
+                format!("partitions {stage}"),
+                format!("{} run apart, {total:.2} s in all; the longest `{longest}`, {most:.2} s", parts.len()),
+            ));
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    /// Few pairs are named one by one; many are cut at twelve, counted, and summarised by
+    /// the labels they go into.
+    #[test]
+    fn long_pair_lists_are_summarised() {
+        assert_eq!(super::pair_list(&[("a", "b"), ("b", "a")]), "a → b, b → a");
+        let labels = ["a", "b", "c", "d", "e", "f"];
+        let pairs: Vec<(&str, &str)> =
+            labels.iter().flat_map(|&a| labels.iter().filter(move |&&b| b != a).map(move |&b| (a, b))).collect();
+        let text = super::pair_list(&pairs);
+        assert!(text.starts_with("a → b, a → c, a → d, a → e, a → f, b → a,"), "{text}");
+        assert!(
+            text.contains("… and 18 more (most: into `a` 5, into `b` 5, into `c` 5, into `d` 5, into `e` 5)"),
+            "{text}"
+        );
+    }
+
+    /// A stage's seconds, and one line for all the partitions of a partitioned stage with
+    /// the longest named; not JSON, nothing.
+    #[test]
+    fn stage_times_sum_the_partitions() {
+        let lock = r#"{"version": 1, "stages": {
+            "bridges": {"seconds": 12.5, "partitions": {"a → b": {"seconds": 3.0}, "b → a": {"seconds": 4.25}}},
+            "ingest": {"seconds": 0.5}
+        }}"#;
+        let t = super::stage_times(lock);
+        assert_eq!(
+            t,
+            [
+                ("seconds bridges".to_string(), "12.50".to_string()),
+                (
+                    "partitions bridges".to_string(),
+                    "2 run apart, 7.25 s in all; the longest `b → a`, 4.25 s".to_string()
+                ),
+                ("seconds ingest".to_string(), "0.50".to_string()),
+            ]
+        );
+        assert!(super::stage_times("not json").is_empty());
+    }
 }

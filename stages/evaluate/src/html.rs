@@ -1,6 +1,6 @@
-//! The self-contained HTML report. Sections, in order: what is missing from the inputs,
-//! conclusions (one sentence per headline metric, from [`crate::model`]),
-//! the metric tables (HTML, CIs shown, the long one sortable), the transition player and the
+//! The self-contained HTML report. Sections, in order: the conclusions (one sentence per
+//! headline metric, from [`crate::model`]), what is missing from the inputs, the metric
+//! tables (HTML, CIs shown, the long one sortable), the transition player and the
 //! synthesized scripts (`assets/player.js`, data inline), the figures ([`crate::charts`],
 //! PNG renders), the definitions and the provenance. No external resources; everything but
 //! the player reads without JavaScript.
@@ -131,8 +131,8 @@ pub fn page(p: &Page<'_>, metrics: &[Metric], ctx: &report::Context<'_>) -> Stri
         n = esc(p.name),
         o = esc(&others.join(", "))
     );
-    missing(&mut s, &p.missing);
     conclusions(&mut s, metrics, ctx);
+    missing(&mut s, &p.missing);
     tables(&mut s, metrics, ctx);
     player(&mut s, p.player.as_ref());
     figures(&mut s, p, metrics, ctx);
