@@ -17,6 +17,7 @@
 
 mod labels;
 mod probe;
+pub mod still;
 mod template;
 #[cfg(test)]
 mod tests;

@@ -97,15 +97,22 @@ impl<'a> Probe<'a> {
         }
     }
 
-    /// Labels with `labels`, then scales and reduces: the labels whose PCA keeps fewer
-    /// than [`GPLVM_Q`] dimensions, with why.
+    /// Labels with `labels`, then scales and reduces: the labels that cannot be modeled,
+    /// with why — those that barely move ([`crate::still`]) and those whose PCA keeps fewer
+    /// than [`GPLVM_Q`] dimensions.
     pub(crate) fn thin_labels(&self, labels: &ArtifactPath) -> Result<BTreeMap<String, String>> {
         self.run("label", Some(labels.clone()))?;
         self.run("scale", None)?;
         self.run("pca", None)?;
+        let read = |what: &str, e: &dyn std::fmt::Display| Error::Init(format!("reading what {what} wrote: {e}"));
+        let lf = reprise_artifact::frames::LabeledFrames::read(&self.file("labeled_frames.parquet"))
+            .map_err(|e| read("label", &e))?;
+        let scales = reprise_artifact::scales::read(&self.file("scales.parquet")).map_err(|e| read("scale", &e))?;
+        let weights = reprise_artifact::scales::mean_weights(&scales, &lf.frames.controls);
+        let mut thin = crate::still::still_labels(&crate::still::label_motion(&lf, &weights));
         let (_, models) = reprise_artifact::pca::read_models(&self.file("pca_models.parquet"))
-            .map_err(|e| Error::Init(format!("reading what pca wrote: {e}")))?;
-        Ok(models
+            .map_err(|e| read("pca", &e))?;
+        let flat: BTreeMap<String, String> = models
             .iter()
             .filter(|m| m.variant == reprise_artifact::pca::SCALED && m.d() < GPLVM_Q)
             .map(|m| {
@@ -116,7 +123,11 @@ impl<'a> Probe<'a> {
                 );
                 (m.label.clone(), why)
             })
-            .collect())
+            .collect();
+        for (label, why) in flat {
+            thin.entry(label).or_insert(why);
+        }
+        Ok(thin)
     }
 
     /// The segments the last label run wrote.
