@@ -110,8 +110,8 @@ impl<'a> Probe<'a> {
         let scales = reprise_artifact::scales::read(&self.file("scales.parquet")).map_err(|e| read("scale", &e))?;
         let weights = reprise_artifact::scales::mean_weights(&scales, &lf.frames.controls);
         let mut thin = crate::still::still_labels(&crate::still::label_motion(&lf, &weights));
-        let (_, models) = reprise_artifact::pca::read_models(&self.file("pca_models.parquet"))
-            .map_err(|e| read("pca", &e))?;
+        let (_, models) =
+            reprise_artifact::pca::read_models(&self.file("pca_models.parquet")).map_err(|e| read("pca", &e))?;
         let flat: BTreeMap<String, String> = models
             .iter()
             .filter(|m| m.variant == reprise_artifact::pca::SCALED && m.d() < GPLVM_Q)

@@ -114,6 +114,12 @@ pub struct Args {
     /// With `mesh-motion`: which quantile of the per-frame mesh motion is the unit.
     #[arg(long, default_value_t = 0.5)]
     pub motion_quantile: f64,
+    /// With `mesh-motion`: the threshold is at least this share of the character's size
+    /// (the bounding-box diagonal of M1's first training pose's mesh), so that labels that
+    /// barely move, whose motion gives a threshold near zero, can still be bridged where
+    /// their poses are close.
+    #[arg(long, default_value_t = 0.01)]
+    pub size_floor: f64,
     /// Seed of the random starts (each pair's seed mixes in its two labels' names).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -151,10 +157,12 @@ impl Args {
             }
             Threshold::MeshMotion
                 if !(self.motion_multiple.is_finite()
+                    && self.size_floor.is_finite()
+                    && self.size_floor >= 0.0
                     && self.motion_multiple >= 0.0
                     && (0.0..=1.0).contains(&self.motion_quantile)) =>
             {
-                cfg("--motion-multiple must be >= 0 and --motion-quantile in [0, 1]")
+                cfg("--motion-multiple and --size-floor must be >= 0 and --motion-quantile in [0, 1]")
             }
             _ => Ok(()),
         }
@@ -433,6 +441,14 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
                 let m = e1.len() / c.len().max(1);
                 Ok(Some((0..c.len()).map(|i| mesh_rmse(&e1[i * m..(i + 1) * m], &e2[i * m..(i + 1) * m])).collect()))
             };
+            // The size floor of a mesh-motion threshold: a share of the character's size.
+            let mesh_max = match (args.threshold, mesh_max, rig.as_ref(), cands.iter().min_by_key(|c| c.point)) {
+                (Threshold::MeshMotion, Some((motion, max)), Some(r), Some(first)) => {
+                    let size = bbox_diagonal(&meshes(r, std::slice::from_ref(&first.p1))?);
+                    Some((motion, max.max(args.size_floor * size)))
+                }
+                (_, m, ..) => m,
+            };
             let (kept, mesh): (Vec<Candidate>, Option<Vec<f64>>) = match args.threshold {
                 Threshold::Quantile => {
                     let k = ((args.quantile * tried as f64).round() as usize).clamp(1, tried.max(1)).min(tried);
@@ -494,6 +510,21 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
     }
     bridges::write(&args.io.bridges, &all, models[0].q(), &provenance)?;
     Ok(Some(Outcome { counts, labels: models.len() }))
+}
+
+/// The diagonal of the bounding box of `mesh` (`x y z …`, mesh units); 0 for none.
+fn bbox_diagonal(mesh: &[f64]) -> f64 {
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for v in mesh.chunks_exact(3) {
+        for k in 0..3 {
+            lo[k] = lo[k].min(v[k]);
+            hi[k] = hi[k].max(v[k]);
+        }
+    }
+    if lo[0] > hi[0] {
+        return 0.0;
+    }
+    (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt()
 }
 
 /// The ordered pairs `(from, to)` of model indices to search: every pair, or the one
@@ -574,6 +605,13 @@ mod tests {
         fn evaluate_pose(&self, pose: &[f64], out: &mut [f64]) {
             out.copy_from_slice(&[pose[0], 0.0, 0.0, 0.0, 2.0 * pose[0], 0.0]);
         }
+    }
+
+    /// The size floor's measure: the bounding box's diagonal (3-4-12 → 13).
+    #[test]
+    fn bbox_diagonal_is_known() {
+        assert_eq!(super::bbox_diagonal(&[0.0, 0.0, 0.0, 3.0, 4.0, 0.0, 1.0, 1.0, 12.0]), 13.0);
+        assert_eq!(super::bbox_diagonal(&[]), 0.0);
     }
 
     /// The threshold's data: quantiles of the per-frame RMS vertex motion, within segments
