@@ -79,14 +79,14 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     let pairs: std::collections::BTreeSet<(&str, &str)> =
         bridges.iter().map(|b| (b.from.as_str(), b.to.as_str())).collect();
     // The absolute threshold the stage derived from each pair's data (its table's last
-    // column: from, to, candidates, kept, best, frame motion, max mesh), and the bridges it
+    // column: from, to, candidates, at bound, kept, best, frame motion, max mesh), and the bridges it
     // kept: every one within its pair's; a pair without one is left to routing (the scripts
     // still run below).
     let max: std::collections::BTreeMap<(String, String), f64> = out
         .lines()
         .filter_map(|l| {
             let w: Vec<&str> = l.split_whitespace().collect();
-            let max = w.get(6)?.parse().ok().filter(|_| w.len() == 7 && w[2].parse::<usize>().is_ok())?;
+            let max = w.get(7)?.parse().ok().filter(|_| w.len() == 8 && w[2].parse::<usize>().is_ok())?;
             Some(((w[0].to_string(), w[1].to_string()), max))
         })
         .collect();
