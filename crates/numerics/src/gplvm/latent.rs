@@ -213,7 +213,7 @@ pub fn best_latent(predictor: &MeanPredictor, y: &[f64], train_y: &[f64], opts: 
         centre: (0..q).map(|c| 0.5 * (lo[c] + hi[c])).collect(),
         half: (0..q).map(|c| ((0.5 + m) * (hi[c] - lo[c])).max(1e-9)).collect(),
     });
-    let mut scratch = Scratch { x: vec![0.0; q], mu: vec![0.0; d], jac: vec![0.0; d * q] };
+    let mut scratch = Scratch::new(q, d);
     let mut best = Projection { x: starts[0].clone(), sq_error: f64::INFINITY, evaluations: 0, at_bound: false };
     for s in &starts {
         let start = bounds.as_ref().map_or_else(|| s.clone(), |b| b.to_u(s));
@@ -260,6 +260,12 @@ struct Scratch {
     x: Vec<f64>,
     mu: Vec<f64>,
     jac: Vec<f64>,
+}
+
+impl Scratch {
+    fn new(q: usize, d: usize) -> Self {
+        Self { x: vec![0.0; q], mu: vec![0.0; d], jac: vec![0.0; d * q] }
+    }
 }
 
 /// $E = \lVert y - \mu(x)\rVert^2$ at the search variable `u` ($x = u$ without bounds)
@@ -318,14 +324,19 @@ mod tests {
         assert!(dens.relative(&[50.0, 50.0, 50.0], &mut grad) < 1e-100);
     }
 
+    /// A predictor of a random `n`-point problem, and its outputs.
+    fn problem(n: usize, d: usize, q: usize, seed: u64, lengthscale: f64) -> (Predictor, Vec<f64>) {
+        let (x, y) = random_problem(n, d, q, seed);
+        let hyper = Hyper { rbf_variance: 1.0, lengthscale, white_variance: 1e-3 };
+        (Predictor::new(&x, &y, d, hyper, &LikelihoodConfig::default()).unwrap(), y)
+    }
+
     /// The output of a training latent projects back to (a point reconstructing) it, and a
     /// perturbed start still finds it.
     #[test]
     fn best_latent_inverts_the_mean() {
-        let (n, d, q) = (40, 6, 2);
-        let (x, y) = random_problem(n, d, q, 8);
-        let hyper = Hyper { rbf_variance: 1.0, lengthscale: 0.8, white_variance: 1e-3 };
-        let p = Predictor::new(&x, &y, d, hyper, &LikelihoodConfig::default()).unwrap();
+        let (d, q) = (6, 2);
+        let (p, y) = problem(40, d, q, 8, 0.8);
         let mut target = vec![0.0; d];
         let x_true = [0.37, -0.52];
         p.mean(&x_true, &mut target);
@@ -367,19 +378,17 @@ mod tests {
     /// in x).
     #[test]
     fn search_gradient_matches_finite_differences() {
-        let (n, d, q) = (25, 4, 2);
-        let (x, y) = random_problem(n, d, q, 5);
-        let hyper = Hyper { rbf_variance: 1.0, lengthscale: 0.7, white_variance: 1e-3 };
-        let p = Predictor::new(&x, &y, d, hyper, &LikelihoodConfig::default()).unwrap();
+        let (d, q) = (4, 2);
+        let (p, _) = problem(25, d, q, 5, 0.7);
         let target = [0.3, -0.1, 0.7, 0.2];
         let bounds = Bounds { centre: vec![0.1, -0.2], half: vec![1.3, 0.9] };
-        let mut s = Scratch { x: vec![0.0; q], mu: vec![0.0; d], jac: vec![0.0; d * q] };
+        let mut s = Scratch::new(q, d);
         for b in [None, Some(&bounds)] {
             let at = [0.4, -0.8];
             let mut g = [0.0; 2];
             search_error(&p, &target, b, &at, &mut g, &mut s);
             let fd = central_diff(&at, 1e-5, |u| {
-                let mut s = Scratch { x: vec![0.0; q], mu: vec![0.0; d], jac: vec![0.0; d * q] };
+                let mut s = Scratch::new(q, d);
                 search_error(&p, &target, b, u, &mut [0.0; 2], &mut s)
             });
             assert!(max_rel_err(&g, &fd) < 1e-6, "{g:?} {fd:?}");
