@@ -58,19 +58,57 @@ pub(crate) fn record_outputs(stage: &Stage, hasher: &mut FileHasher) -> Result<B
 /// any such file is stale.
 pub(crate) fn remove_stale_temps(stage: &Stage) {
     for (_, path) in &stage.outputs {
-        let (Some(dir), Some(name)) = (path.abs.parent(), path.abs.file_name()) else { continue };
-        let prefix = format!(".{}.", name.to_string_lossy());
-        let Ok(entries) = std::fs::read_dir(dir) else { continue };
-        for entry in entries.flatten() {
-            let file = entry.file_name();
-            let file = file.to_string_lossy();
-            let stale = file
-                .strip_prefix(&prefix)
-                .and_then(|rest| rest.strip_suffix(".tmp"))
-                .is_some_and(|pid| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()));
-            if stale {
-                let _ = std::fs::remove_file(entry.path());
-            }
+        remove_stale_temps_of(&path.abs);
+    }
+}
+
+/// Removes the temporary files (`.<name>.<pid>.tmp`) a killed writer of `path` left
+/// beside it. Call it only while holding the pipeline's run lock: then no live writer
+/// of `path` exists.
+pub(crate) fn remove_stale_temps_of(path: &std::path::Path) {
+    let (Some(dir), Some(name)) = (path.parent(), path.file_name()) else { return };
+    let prefix = format!(".{}.", name.to_string_lossy());
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for entry in entries.flatten() {
+        let file = entry.file_name();
+        let file = file.to_string_lossy();
+        let stale = file
+            .strip_prefix(&prefix)
+            .and_then(|rest| rest.strip_suffix(".tmp"))
+            .is_some_and(|pid| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()));
+        if stale {
+            let _ = std::fs::remove_file(entry.path());
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Regression (CI, 2026-12-03): a runner killed with SIGKILL while saving its lock
+    /// left `.reprise.lock.<pid>.tmp`; the next run removes it and nothing else.
+    #[test]
+    fn a_killed_writers_temporary_copy_is_removed_and_nothing_else() {
+        let dir = tempfile::tempdir().unwrap();
+        let lock = dir.path().join("reprise.lock");
+        let names = [
+            "reprise.lock",
+            ".reprise.lock.2425.tmp",
+            ".reprise.lock.x1.tmp",
+            ".reprise.lock..tmp",
+            ".other.lock.7.tmp",
+        ];
+        for name in names {
+            std::fs::write(dir.path().join(name), "x").unwrap();
+        }
+        remove_stale_temps_of(&lock);
+        let mut left: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(left, [".other.lock.7.tmp", ".reprise.lock..tmp", ".reprise.lock.x1.tmp", "reprise.lock"]);
     }
 }

@@ -17,7 +17,7 @@ use crate::lock::{LockEntry, LockFile};
 use crate::params::canonical_json;
 use crate::partitioned;
 use crate::pipeline::{Pipeline, Stage};
-use crate::record::{record_inputs, record_outputs, remove_stale_temps};
+use crate::record::{record_inputs, record_outputs, remove_stale_temps, remove_stale_temps_of};
 use crate::say;
 use reprise_stagekit::wiring::Partition;
 
@@ -41,6 +41,8 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
 
     let lock_path = pipeline.lock_path();
     let _running = hold_run_lock(&pipeline)?;
+    // A runner killed while saving the lock leaves its temporary copy behind.
+    remove_stale_temps_of(&lock_path);
     let (mut lock, warning) = LockFile::load(&lock_path, &pipeline.name);
     let lock_readable = warning.is_none();
     if let Some(warning) = warning {
