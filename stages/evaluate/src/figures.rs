@@ -201,7 +201,13 @@ pub fn missing(systems: &[System], requests: &[Request], labels: &[String]) -> V
         ));
     }
     if !none.is_empty() {
-        out.push(format!("No requests for {} of the label pairs: {}.", none.len(), pair_list(&none)));
+        let all = labels.len() * labels.len().saturating_sub(1);
+        out.push(format!(
+            "No requests for {} of the {all} ordered label pairs (`transitions` samples the pairs when one \
+             request each would pass its --max-requests): {}.",
+            none.len(),
+            pair_list(&none)
+        ));
     }
     out
 }

@@ -301,6 +301,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         discontinuity_window: args.discontinuity_window,
         graph_kept: (nodes.in_scc.iter().filter(|v| **v).count(), nodes.frame.len()),
         deterministic,
+        refusals: systems.iter().map(|s| s.refusals(&reqs)).collect(),
     };
     let md = report::markdown(&out, &ctx);
     let speed: Vec<(String, Vec<i64>, Vec<f64>)> =

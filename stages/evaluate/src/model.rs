@@ -39,6 +39,8 @@ pub struct Context<'a> {
     pub graph_kept: (usize, usize),
     /// Systems answering the same under every seed (variety 0 by construction).
     pub deterministic: Vec<String>,
+    /// Each system's unanswered requests and the reasons it gave.
+    pub refusals: Vec<crate::systems::Refusals>,
 }
 
 impl Context<'_> {
@@ -208,7 +210,29 @@ pub fn notes(m: &[Metric], ctx: &Context<'_>) -> Vec<String> {
     if !routed.is_empty() {
         out.push(format!("Answers routed through a third label: {}.", routed.join("; ")));
     }
+    out.extend(ctx.refusals.iter().filter(|r| r.refused > 0).map(refusal_note));
     out
+}
+
+/// The most reasons a refusal note names.
+const REASONS_NAMED: usize = 3;
+
+/// Why a system left requests unanswered, in its own words: the most frequent reasons with
+/// their counts, the rest counted.
+fn refusal_note(r: &crate::systems::Refusals) -> String {
+    let named: Vec<String> = r.reasons.iter().take(REASONS_NAMED).map(|(why, n)| format!("{n} × {why}")).collect();
+    let rest: usize = r.reasons.iter().skip(REASONS_NAMED).map(|(_, n)| n).sum();
+    let more = match r.reasons.len().saturating_sub(REASONS_NAMED) {
+        0 => String::new(),
+        k => format!("; {rest} more for {k} other reason{}", if k == 1 { "" } else { "s" }),
+    };
+    format!(
+        "{} did not answer {} of {} requests (counted against it in `answered`, `arrived`, `coverage` and the latency): {}{more}.",
+        r.system,
+        r.refused,
+        r.asked,
+        named.join("; ")
+    )
 }
 
 fn system_head(first: &[&str], ctx: &Context<'_>) -> Vec<String> {
@@ -525,5 +549,66 @@ mod overall_lines_tests {
         assert_eq!(lines[1], "crossfade latency               12.0000 frames");
         assert_eq!(lines[2], "motion-graphs latency            not measured (no observations)");
         assert!(!text.contains("NaN"));
+    }
+}
+
+#[cfg(test)]
+mod refusal_tests {
+    use crate::systems::{Played, System};
+    use reprise_artifact::transitions::{Answer, Answers, Request};
+    use std::collections::BTreeMap;
+
+    fn request(id: i64, to: &str) -> Request {
+        Request { request: id, from: "a".into(), to: to.into(), segment_id: 0, clip: "c".into(), frame: 0 }
+    }
+
+    /// A system that cannot serve a short label says so by label name, every request
+    /// counted; a system that answered everything has nothing to say.
+    #[test]
+    fn a_system_says_why_it_did_not_answer_by_label() {
+        let reqs: Vec<Request> = (0..10).map(|i| request(i, if i < 6 { "short" } else { "long" })).collect();
+        let short = "label `short` has no frame to jump to: a frame needs 12 frames of continuation in its segment";
+        let mut by_request = std::collections::HashMap::new();
+        for r in &reqs {
+            let a = match r.request {
+                0..=5 => Answer::failed(short),
+                6 => Answer::failed("did not reach `long` within the time-out"),
+                7 => Answer::failed(""),
+                _ => Answer::reached(0, 3),
+            };
+            by_request.insert(r.request, a);
+        }
+        let s = System::in_memory("mm", Answers { system: "mm".into(), by_request }, BTreeMap::<i64, Played>::new());
+        let r = s.refusals(&reqs);
+        assert_eq!((r.refused, r.asked), (8, 10));
+        assert_eq!(r.reasons[0], (short.to_string(), 6));
+        let note = super::refusal_note(&r);
+        assert!(note.starts_with("mm did not answer 8 of 10 requests"), "{note}");
+        assert!(note.contains(&format!("6 × {short}")) && note.contains("1 × no reason given"), "{note}");
+        assert!(!note.contains("other reason"), "three reasons are all named: {note}");
+
+        let all = System::in_memory(
+            "x",
+            Answers {
+                system: "x".into(),
+                by_request: reqs.iter().map(|r| (r.request, Answer::reached(0, 1))).collect(),
+            },
+            BTreeMap::new(),
+        );
+        assert_eq!(all.refusals(&reqs).refused, 0);
+    }
+
+    /// Past three reasons the rest are counted, not listed.
+    #[test]
+    fn many_reasons_are_counted_past_three() {
+        let r = crate::systems::Refusals {
+            system: "s".into(),
+            refused: 10,
+            asked: 20,
+            reasons: (0..5).map(|i| (format!("why {i}"), 2)).collect(),
+        };
+        let note = super::refusal_note(&r);
+        assert!(note.contains("2 × why 2") && !note.contains("why 3"), "{note}");
+        assert!(note.ends_with("; 4 more for 2 other reasons."), "{note}");
     }
 }

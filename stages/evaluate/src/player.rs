@@ -543,7 +543,7 @@ mod tests {
         let notes = crate::figures::missing(&[s], &reqs, &["a".into(), "b".into()]);
         let all = notes.join("\n");
         assert!(all.contains("Motion Graphs (`motion-graphs`) was not given"), "{all}");
-        assert!(all.contains("No requests for 1 of the label pairs: b → a"), "{all}");
+        assert!(all.contains("No requests for 1 of the 2 ordered label pairs") && all.contains("): b → a."), "{all}");
         assert!(all.contains("reprise answered none of the requests of 1 label pairs"), "{all}");
     }
 }

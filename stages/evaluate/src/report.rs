@@ -235,6 +235,7 @@ pub(crate) mod tests {
             discontinuity_window: 24,
             graph_kept: (1, 2),
             deterministic: deterministic.iter().map(|d| d.to_string()).collect(),
+            refusals: vec![],
         };
         f(&ctx)
     }

@@ -20,6 +20,20 @@ pub struct Played {
     pub x: Vec<Vec<f64>>,
 }
 
+/// The requests a system did not answer, and why (its own words: each system's answers
+/// carry the reason it gave).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Refusals {
+    /// The system's shown name.
+    pub system: String,
+    /// Requests not answered.
+    pub refused: usize,
+    /// Requests asked.
+    pub asked: usize,
+    /// (reason, requests), most frequent first.
+    pub reasons: Vec<(String, usize)>,
+}
+
 /// One system: its answers, and where the frames it played are. The frames are streamed
 /// request by request ([`System::stream`]) — a benchmark's curves do not fit in memory —
 /// except those of the requests the player shows ([`System::keep_played`]).
@@ -87,6 +101,21 @@ impl System {
             curves: curves.into(),
             reseeded_curves: reseeded.map(Path::to_path_buf),
         })
+    }
+
+    /// The requests of `requests` the system did not answer, grouped by the reason it gave
+    /// (most frequent first, then by reason).
+    pub fn refusals(&self, requests: &[Request]) -> Refusals {
+        let mut by_reason: BTreeMap<&str, usize> = BTreeMap::new();
+        let mut refused = 0;
+        for r in requests.iter().filter(|r| !self.answered(r)) {
+            refused += 1;
+            let why = self.answer(r).map_or("", |a| a.error.as_str());
+            *by_reason.entry(if why.is_empty() { "no reason given" } else { why }).or_default() += 1;
+        }
+        let mut reasons: Vec<(String, usize)> = by_reason.into_iter().map(|(w, n)| (w.to_string(), n)).collect();
+        reasons.sort_by(|a, b| b.1.cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+        Refusals { system: self.shown.clone(), refused, asked: requests.len(), reasons }
     }
 
     /// The system's frames, request by request in file order.

@@ -83,8 +83,9 @@ pub struct Args {
     /// Requests per ordered pair of labels.
     #[arg(long, default_value_t = 20)]
     pub per_pair: usize,
-    /// At most this many requests in all: with many labels, fewer per pair (at least one;
-    /// the stage says when it lowers `per_pair`).
+    /// At most this many requests in all: with many labels, fewer per pair; when even one
+    /// per pair would pass it, one each for this many pairs sampled evenly over the labels
+    /// (the stage says when it lowers `per_pair` or samples pairs).
     #[arg(long, default_value_t = 1200)]
     pub max_requests: usize,
     /// Seed of the start frames (and of reprise's random force, + request id).
@@ -219,6 +220,37 @@ fn requests_per_pair(wanted: usize, budget: usize, labels: usize) -> usize {
     wanted.min((budget / pairs.max(1)).max(1))
 }
 
+/// The ordered label pairs $(a, b)$ (indices into `labels` labels) that get requests, in
+/// `(a, b)` order. Every pair when one request each fits `budget`; otherwise `budget`
+/// pairs sampled in rounds: round $d \in \{1, \dots, L-1\}$ pairs every label $i$ with
+/// $(i + d) \bmod L$, the rounds taken in an order drawn from `seed`, the last one cut to
+/// a seeded choice of its pairs. Each label is thus asked to leave, and to be reached,
+/// equally often (within one) — a stated sample, not a cut by label order.
+fn request_pairs(labels: usize, budget: usize, seed: u64) -> Vec<(usize, usize)> {
+    use rand::seq::SliceRandom;
+    let all = || (0..labels).flat_map(|a| (0..labels).filter(move |&b| b != a).map(move |b| (a, b)));
+    if labels * labels.saturating_sub(1) <= budget {
+        return all().collect();
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x7061_6972_735f_7631);
+    let mut rounds: Vec<usize> = (1..labels).collect();
+    rounds.shuffle(&mut rng);
+    let mut pairs = Vec::with_capacity(budget);
+    for d in rounds {
+        let mut round: Vec<(usize, usize)> = (0..labels).map(|i| (i, (i + d) % labels)).collect();
+        if pairs.len() + round.len() > budget {
+            round.shuffle(&mut rng);
+            round.truncate(budget - pairs.len());
+        }
+        pairs.extend(round);
+        if pairs.len() == budget {
+            break;
+        }
+    }
+    pairs.sort_unstable();
+    pairs
+}
+
 /// Frames from the request to the first frame of `to`: `request` is the index of the
 /// last frame before the request (the start pose for the baseline, the end of the hold
 /// for reprise), so a hold before the request counts for no one.
@@ -273,16 +305,24 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     // The seeded requests.
     let labels: Vec<String> = models.models.iter().map(|m| m.label.clone()).collect();
     let per_pair = requests_per_pair(args.per_pair, args.max_requests, labels.len());
-    if per_pair < args.per_pair {
+    let pairs = request_pairs(labels.len(), args.max_requests, args.seed);
+    let all_pairs = labels.len() * labels.len().saturating_sub(1);
+    if pairs.len() < all_pairs {
         eprintln!(
-            "transitions: {} ordered pairs × {} requests would pass --max-requests {}: {per_pair} per pair",
-            labels.len() * labels.len().saturating_sub(1),
-            args.per_pair,
-            args.max_requests
+            "transitions: {all_pairs} ordered pairs would pass --max-requests {}: one request each for {} pairs, \
+             sampled so that every label leaves and is reached equally often (within one)",
+            args.max_requests,
+            pairs.len()
+        );
+    } else if per_pair < args.per_pair {
+        eprintln!(
+            "transitions: {all_pairs} ordered pairs × {} requests would pass --max-requests {}: {per_pair} per pair",
+            args.per_pair, args.max_requests
         );
     }
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed);
     let mut requests = Vec::new();
+    let mut rows_of = Vec::with_capacity(labels.len());
     for a in &labels {
         let rows: Vec<usize> = (0..labeled.frames.rows()).filter(|&r| &labeled.label[r] == a).collect();
         if rows.is_empty() {
@@ -291,11 +331,13 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
                 args.io.labeled_frames.display()
             )));
         }
-        for b in labels.iter().filter(|b| *b != a) {
-            for _ in 0..per_pair {
-                let r = rows[rng.gen_range(0..rows.len())];
-                requests.push((requests.len(), a.clone(), b.clone(), r));
-            }
+        rows_of.push(rows);
+    }
+    for &(a, b) in &pairs {
+        let rows = &rows_of[a];
+        for _ in 0..per_pair {
+            let r = rows[rng.gen_range(0..rows.len())];
+            requests.push((requests.len(), labels[a].clone(), labels[b].clone(), r));
         }
     }
     let base = Baseline {
@@ -484,5 +526,27 @@ mod tests {
         assert_eq!(requests_per_pair(20, 1200, 12), 9);
         assert_eq!(requests_per_pair(20, 1200, 48), 1);
         assert_eq!(requests_per_pair(5, 1200, 2), 5);
+    }
+
+    /// Up to the budget every ordered pair is asked, in (a, b) order; past it, exactly
+    /// `budget` distinct pairs, each label leaving and reached equally often (within one),
+    /// the same for a seed and different for another.
+    #[test]
+    fn a_request_budget_samples_pairs_evenly_over_labels() {
+        assert_eq!(request_pairs(3, 6, 0), [(0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1)]);
+        for (labels, budget) in [(48, 1200), (48, 1000), (48, 47), (10, 89), (40, 1559)] {
+            let pairs = request_pairs(labels, budget, 7);
+            assert_eq!(pairs.len(), budget, "{labels} labels");
+            assert!(pairs.windows(2).all(|w| w[0] < w[1]), "sorted and distinct");
+            assert!(pairs.iter().all(|&(a, b)| a != b && a < labels && b < labels));
+            for side in [0, 1] {
+                let mut n = vec![0usize; labels];
+                pairs.iter().for_each(|p| n[if side == 0 { p.0 } else { p.1 }] += 1);
+                let (lo, hi) = (n.iter().min().unwrap(), n.iter().max().unwrap());
+                assert!(hi - lo <= 1, "{labels} labels, budget {budget}: counts {lo}..{hi}");
+            }
+            assert_eq!(pairs, request_pairs(labels, budget, 7));
+        }
+        assert_ne!(request_pairs(48, 1200, 7), request_pairs(48, 1200, 8));
     }
 }
