@@ -9,7 +9,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 want=${1:-48}
-bin=target/release/reprise
+bin=${REPRISE_BIN:-target/release/reprise}  # REPRISE_BIN: binaries copied elsewhere, to rebuild meanwhile
 [ -x "$bin" ] || { echo "$bin not found: cargo build --release"; exit 1; }
 dir=target/many-labels
 mkdir -p "$dir/scripts"

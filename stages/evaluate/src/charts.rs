@@ -32,6 +32,26 @@ fn range(v: impl Iterator<Item = f64>) -> (f64, f64) {
 /// Maps a latent point to its panel's pixel position.
 type Place = Box<dyn Fn([f64; 2]) -> (f64, f64)>;
 
+/// Panels per row of small multiples, and their size, for `n` panels of full size
+/// `full`: four in a row up to a dozen, then eight in a row at 0.6 × the size, so that 48
+/// labels take six rows rather than twelve.
+fn small_multiples(n: usize, full: (f64, f64)) -> (usize, f64, f64) {
+    if n <= 12 {
+        (4, full.0, full.1)
+    } else {
+        (8, 0.6 * full.0, 0.6 * full.1)
+    }
+}
+
+/// The most bridge lines the latent figure draws: past it, lines across dozens of panels
+/// hide the panels, so only the bridges' ends are marked.
+pub const MAX_BRIDGE_LINES: usize = 64;
+
+/// Pixels per character of a label at `font` px (a sans-serif's mean advance).
+fn text_width(text: &str, font: f64) -> f64 {
+    text.chars().count() as f64 * font * 0.6
+}
+
 /// A bar: (mean, CI low, CI high); `None` where not measured.
 pub type Bar = Option<(f64, f64, f64)>;
 
@@ -43,14 +63,25 @@ pub struct LatentPanel {
     pub segments: Vec<Vec<[f64; 2]>>,
 }
 
-/// All labels' latent spaces in a grid of panels, with the rank-1 bridges drawn between
-/// them: a line from $x_1$ in A's panel to $x_2$ in B's, coloured by A, and the endpoints
-/// marked (● leaves, ○ arrives).
+/// All labels' latent spaces in a grid of panels ([`small_multiples`]), with the rank-1
+/// bridges drawn between them: a line from $x_1$ in A's panel to $x_2$ in B's, coloured by
+/// A, and the endpoints marked (● leaves, ○ arrives); past [`MAX_BRIDGE_LINES`] bridges
+/// only the endpoints, and the title says so.
 pub fn latents_with_bridges(panels: &[LatentPanel], bridges: &[(usize, [f64; 2], usize, [f64; 2])]) -> String {
-    let (pw, ph, cols) = (250.0, 210.0, 4usize);
+    let (cols, pw, ph) = small_multiples(panels.len(), (250.0, 210.0));
     let rows = panels.len().div_ceil(cols).max(1);
     let (w, h) = (pw * cols as f64 + 20.0, ph * rows as f64 + 30.0);
-    let mut s = svg_open(w, h, "Latent spaces (x0 against x1) and the best bridge of every ordered pair");
+    let lines = bridges.len() <= MAX_BRIDGE_LINES;
+    let title = if lines {
+        "Latent spaces (x0 against x1) and the best bridge of every ordered pair".to_string()
+    } else {
+        format!(
+            "Latent spaces (x0 against x1) and where the best bridge of each of the {} ordered pairs leaves (●) and \
+             arrives (○); lines omitted past {MAX_BRIDGE_LINES}",
+            bridges.len()
+        )
+    };
+    let mut s = svg_open(w, h, &title);
     let place: Vec<Place> = panels
         .iter()
         .enumerate()
@@ -90,10 +121,15 @@ pub fn latents_with_bridges(panels: &[LatentPanel], bridges: &[(usize, [f64; 2],
     for &(a, x1, b, x2) in bridges.iter().filter(|(a, _, b, _)| *a < panels.len() && *b < panels.len()) {
         let ((ax, ay), (bx, by)) = (place[a](x1), place[b](x2));
         let c = PALETTE[a % 10];
+        if lines {
+            let _ = write!(
+                s,
+                "<line x1='{ax:.1}' y1='{ay:.1}' x2='{bx:.1}' y2='{by:.1}' stroke='{c}' stroke-width='0.8' opacity='0.35'/>"
+            );
+        }
         let _ = write!(
             s,
-            "<line x1='{ax:.1}' y1='{ay:.1}' x2='{bx:.1}' y2='{by:.1}' stroke='{c}' stroke-width='0.8' opacity='0.35'/>\
-             <circle cx='{ax:.1}' cy='{ay:.1}' r='2.5' fill='{c}'/><circle cx='{bx:.1}' cy='{by:.1}' r='2.5' fill='white' stroke='{c}'/>"
+            "<circle cx='{ax:.1}' cy='{ay:.1}' r='2.5' fill='{c}'/><circle cx='{bx:.1}' cy='{by:.1}' r='2.5' fill='white' stroke='{c}'/>"
         );
     }
     s + "</svg>"
@@ -102,7 +138,7 @@ pub fn latents_with_bridges(panels: &[LatentPanel], bridges: &[(usize, [f64; 2],
 /// Small multiples of the GPLVM objective against iteration, one panel per label (its own
 /// y axis, labelled with the first and last value).
 pub fn fit_traces(traces: &[(String, Vec<(i64, f64)>)]) -> String {
-    let (pw, ph, cols) = (250.0, 150.0, 4usize);
+    let (cols, pw, ph) = small_multiples(traces.len(), (250.0, 150.0));
     let rows = traces.len().div_ceil(cols).max(1);
     let mut s = svg_open(
         pw * cols as f64 + 20.0,
@@ -332,18 +368,29 @@ pub fn speed(series: &[(String, Vec<i64>, Vec<f64>)]) -> String {
 }
 
 /// A label × label heat map of shares in [0, 1] (`value(a, b)`; `None`: not measured).
+/// Cells shrink with the label count (34 px down to 12) and carry their value as text
+/// while it fits (else in the tooltip only); the margins fit the longest label.
 pub fn heat(title: &str, labels: &[String], value: impl Fn(&str, &str) -> Option<f64>) -> String {
-    let (cell, left, top) = (34.0, 90.0, 90.0);
     let n = labels.len() as f64;
+    let cell = (600.0 / n.max(1.0)).clamp(12.0, 34.0);
+    let font = (cell - 2.0).min(11.0);
+    let longest = labels.iter().map(|l| text_width(l, font)).fold(0.0, f64::max);
+    // Column labels are turned 60°: they rise by sin 60° of their length.
+    let (left, top) = (longest + 10.0, (longest * 0.87 + 14.0).max(24.0));
     let mut s = svg_open(left + n * cell + 10.0, top + n * cell + 10.0, title);
     for (i, a) in labels.iter().enumerate() {
-        let _ = write!(s, "<text x='4' y='{}' font-size='11'>{}</text>", top + i as f64 * cell + 21.0, esc(a));
         let _ = write!(
             s,
-            "<text x='{x}' y='{y}' font-size='11' transform='rotate(-60 {x} {y})'>{}</text>",
+            "<text x='4' y='{:.1}' font-size='{font:.1}'>{}</text>",
+            top + (i as f64 + 0.5) * cell + font * 0.35,
+            esc(a)
+        );
+        let _ = write!(
+            s,
+            "<text x='{x:.1}' y='{y:.1}' font-size='{font:.1}' transform='rotate(-60 {x:.1} {y:.1})'>{}</text>",
             esc(a),
-            x = left + i as f64 * cell + 14.0,
-            y = top - 6.0
+            x = left + (i as f64 + 0.5) * cell,
+            y = top - 4.0
         );
         for (j, b) in labels.iter().enumerate() {
             let (x, y) = (left + j as f64 * cell, top + i as f64 * cell);
@@ -357,9 +404,10 @@ pub fn heat(title: &str, labels: &[String], value: impl Fn(&str, &str) -> Option
                 }
                 _ => ("#eee".into(), String::new()),
             };
+            let shown = if cell >= 28.0 { text.as_str() } else { "" };
             let _ = write!(
                 s,
-                "<rect x='{x}' y='{y}' width='{cell}' height='{cell}' fill='{fill}' stroke='white'><title>{} → {}: {text}</title></rect><text x='{}' y='{}' font-size='10'>{text}</text>",
+                "<rect x='{x:.1}' y='{y:.1}' width='{cell:.1}' height='{cell:.1}' fill='{fill}' stroke='white'><title>{} → {}: {text}</title></rect><text x='{:.1}' y='{:.1}' font-size='10'>{shown}</text>",
                 esc(a),
                 esc(b),
                 x + 4.0,
@@ -383,6 +431,43 @@ mod tests {
         assert!((g[0].1 - (5.5f64 + 4.5e-9).log10()).abs() < 1e-12);
         assert!((g[1].1 - (0.5f64 + 4.5e-9).log10()).abs() < 1e-12);
         assert!((g[2].1 - 4.5e-9f64.log10()).abs() < 1e-12);
+    }
+
+    /// Every label of a 48-label heat map fits its margin and the cells shrink so the map
+    /// stays within a screen's width; eight labels keep 34-px cells with their values.
+    #[test]
+    fn heat_maps_stay_readable_with_48_labels() {
+        let labels: Vec<String> = (0..48).map(|i| format!("neutral_take{i:02}_b")).collect();
+        let svg = heat("coverage", &labels, |_, _| Some(0.5));
+        let width: f64 = svg.split("width='").nth(1).unwrap().split('\'').next().unwrap().parse().unwrap();
+        assert!(width <= 800.0, "{width}");
+        let font: f64 = svg.split("font-size='").nth(2).unwrap().split('\'').next().unwrap().parse().unwrap();
+        let left: f64 = svg.split("<rect x='").nth(1).unwrap().split('\'').next().unwrap().parse().unwrap();
+        assert!(4.0 + text_width(&labels[0], font) <= left, "row labels end before the first cell");
+        assert!(font >= 10.0, "{font}");
+        assert!(
+            !svg.contains(">0.50</text>") && svg.contains("<title>neutral_take00_b → neutral_take01_b: 0.50</title>")
+        );
+        let few = heat("coverage", &labels[..8], |_, _| Some(0.5));
+        assert!(few.contains("width='34.0'") && few.contains(">0.50</text>"), "{few}");
+    }
+
+    /// Up to 64 bridges are drawn as lines; past that, only their ends, and the title
+    /// says so; 48 panels go eight to a row.
+    #[test]
+    fn many_bridges_are_drawn_as_ends_only() {
+        let panels: Vec<LatentPanel> = (0..48)
+            .map(|i| LatentPanel { label: format!("l{i}"), segments: vec![vec![[0.0, 0.0], [1.0, 1.0]]] })
+            .collect();
+        let bridges: Vec<_> = (0..48)
+            .flat_map(|a| (0..48).filter(move |&b| b != a).map(move |b| (a, [0.5, 0.5], b, [0.2, 0.8])))
+            .collect();
+        let svg = latents_with_bridges(&panels, &bridges);
+        assert!(!svg.contains("<line") && svg.matches("<circle").count() == 2 * bridges.len());
+        assert!(svg.contains("each of the 2256 ordered pairs") && svg.contains("lines omitted past 64"), "title");
+        assert_eq!(small_multiples(48, (250.0, 210.0)), (8, 150.0, 126.0));
+        let few = latents_with_bridges(&panels[..3], &bridges[..4]);
+        assert!(few.matches("<line").count() == 2 && few.contains("the best bridge of every ordered pair"), "{few}");
     }
 
     /// The per-system stats beside the histograms fit inside the picture, however many

@@ -476,7 +476,9 @@ fn figures(s: &mut String, p: &Page<'_>, m: &[Metric], ctx: &report::Context<'_>
         s,
         "<h3>Latent spaces and the bridges between them (the paper's Fig. 2)</h3><p>Each label's training latents, \
          one polyline per segment; a line for the best bridge of every ordered pair from x1 (●, in A's space) to \
-         x2 (○, in B's).</p><div id='latents'>{}</div>",
+         x2 (○, in B's) — past {} bridges only their ends, as lines across dozens of panels hide them.</p>\
+         <div id='latents'>{}</div>",
+        charts::MAX_BRIDGE_LINES,
         charts::latents_with_bridges(&p.latents, &p.latent_bridges)
     );
     let cam = Camera::fit(&[p.camera_mesh], 280, 280);

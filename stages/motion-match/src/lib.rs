@@ -90,6 +90,10 @@ pub struct Args {
     /// Seed of the search timer's phase at each request (+ request id).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Controls of the answers' curves are stored to this fraction of their range in the
+    /// training frames (a power-of-two grid; 0: exactly).
+    #[arg(long, default_value_t = reprise_artifact::curves::BENCHMARK_RESOLUTION)]
+    pub resolution: f64,
 }
 
 /// What the stage answered: per request, (motion matching's, the crossfade's) answer.
@@ -107,10 +111,12 @@ impl Args {
             && non_negative(self.halflife)
             && non_negative(self.hold)
             && positive(self.timeout)
-            && self.timeout <= 3600.0;
+            && self.timeout <= 3600.0
+            && (0.0..=0.1).contains(&self.resolution);
         if !valid {
             return Err(StageError::Config(
-                "need --features >= 1, --search-interval > 0, --halflife >= 0, --hold >= 0, 0 < --timeout <= 3600"
+                "need --features >= 1, --search-interval > 0, --halflife >= 0, --hold >= 0, 0 < --timeout <= 3600, \
+                 --resolution in [0, 0.1]"
                     .into(),
             ));
         }
@@ -234,7 +240,9 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
         ("crossfade", &args.io.crossfade_answers, &args.io.crossfade_curves),
     ];
     let controls = &labeled.frames.controls;
-    let mut writers = outputs.map(|(_, _, c)| curves::Writer::create(c, fps, controls, &provenance));
+    let resolution = curves::Resolution::relative(args.resolution, &labeled.frames.ranges());
+    let mut writers = outputs
+        .map(|(_, _, c)| curves::Writer::create(c, fps, controls, &provenance).with_resolution(resolution.clone()));
     let mut answered: Answered = Vec::with_capacity(reqs.len());
     let answer = |r: &Request| -> StageResult<(Request, [Reply; 2])> {
         let start = *corpus.rows.get(&(r.segment_id, r.frame)).ok_or_else(|| {
@@ -352,7 +360,8 @@ mod tests {
 
     /// Both systems reach B; their curves start at the request's frame (asked = 0), hold
     /// the first frame of B at `latency`, unscale to the controls' own values (a frame of B
-    /// replayed after the blend is a training frame exactly), and carry the producing label.
+    /// replayed after the blend is a training frame, to the stored resolution), and carry
+    /// the producing label.
     #[test]
     fn both_systems_answer_from_the_start_frame() {
         let dir = tempfile::tempdir().unwrap();
@@ -366,12 +375,12 @@ mod tests {
             let a = transitions::read_answers(answers).unwrap();
             let c = curves::read(curves_path).unwrap();
             let rows: Vec<usize> = (0..c.script.len()).filter(|&r| c.script[r] == "r0").collect();
-            assert_eq!(
-                &c.values[rows[0] * 2..rows[0] * 2 + 2],
-                lf.frames.row(10),
-                "{}: starts at the request",
-                a.system
-            );
+            // Stored to the benchmark's resolution: within half a grid step of the frame.
+            let ranges = lf.frames.ranges();
+            let start = &c.values[rows[0] * 2..rows[0] * 2 + 2];
+            for ((got, want), range) in start.iter().zip(lf.frames.row(10)).zip(&ranges) {
+                assert!((got - want).abs() <= 0.5 * args.resolution * range, "{}: starts at the request", a.system);
+            }
             let l = a.get(0).unwrap().latency.unwrap() as usize;
             assert!(l >= 1 && c.model[rows[l]] == "b" && c.model[rows[l - 1]] == "a", "{}: latency {l}", a.system);
             // The last frame replays B: it is one of B's training frames (after the blend).

@@ -101,6 +101,10 @@ pub struct Args {
     /// The motion graph's blend length k (frames; as its window).
     #[arg(long, default_value_t = 12)]
     pub window: usize,
+    /// Controls of the answers' curves are stored to this fraction of their range in the
+    /// training frames (a power-of-two grid; 0: exactly).
+    #[arg(long, default_value_t = reprise_artifact::curves::BENCHMARK_RESOLUTION)]
+    pub resolution: f64,
 }
 
 /// One played frame: the label that produced it, its controls, its latent point (reprise's
@@ -267,9 +271,11 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
         || args.hold > reprise_synth_engine::script::MAX_SECONDS
         || args.window < 2
         || !(0.0..=10.0).contains(&args.path_slack)
+        || !(0.0..=0.1).contains(&args.resolution)
     {
         return Err(StageError::Config(
-            "need --per-pair >= 1, --max-requests >= 1, 0 <= --hold <= 3600, --window >= 2, --path-slack in [0, 10]"
+            "need --per-pair >= 1, --max-requests >= 1, 0 <= --hold <= 3600, --window >= 2, --path-slack in [0, 10], \
+             --resolution in [0, 0.1]"
                 .into(),
         ));
     }
@@ -357,8 +363,11 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     ];
     // Requests are answered a chunk at a time and their frames written before the next
     // chunk: the stage holds a chunk's frames, not the benchmark's.
-    let mut writers =
-        outputs.map(|(_, c, r)| [c, r].map(|p| curves::Writer::create(p, fps, &models.controls, &provenance)));
+    let resolution = curves::Resolution::relative(args.resolution, &labeled.frames.ranges());
+    let mut writers = outputs.map(|(_, c, r)| {
+        [c, r]
+            .map(|p| curves::Writer::create(p, fps, &models.controls, &provenance).with_resolution(resolution.clone()))
+    });
     let mut answered: Answered = Vec::with_capacity(requests.len());
     let answer = |(id, a, b, r): &(usize, String, String, usize)| {
         let hold =

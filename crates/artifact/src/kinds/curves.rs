@@ -10,7 +10,8 @@
 //! | `x0…` | Float64 | the particle's latent point |
 //! | *one per control* | Float64 | rig controls (blended across model switches) |
 //!
-//! Metadata: `reprise.fps`.
+//! Metadata: `reprise.fps`, and `reprise.resolution` where the controls were stored to a
+//! [`Resolution`].
 
 use std::path::{Path, PathBuf};
 
@@ -80,6 +81,58 @@ impl Curves {
     }
 }
 
+/// The relative resolution of the transition benchmark's curves (`--resolution` of
+/// `transitions` and `motion-match`): a millionth of each control's training range — far
+/// below what the measures resolve, and 3× smaller tables than exact values (#26).
+pub const BENCHMARK_RESOLUTION: f64 = 1e-6;
+
+/// Controls stored to a resolution relative to their range: control $j$ is rounded to the
+/// nearest multiple of $g_j = 2^{\lfloor \log_2(\varepsilon r_j) \rfloor}$, where $r_j$ is
+/// its range (max − min) in a reference — the training frames — and $\varepsilon$ the
+/// relative resolution. The error is at most $g_j / 2 \le \varepsilon r_j / 2$ in the
+/// control's own units. A control that does not vary in the reference ($r_j = 0$), or
+/// $\varepsilon = 0$, is stored exactly. A multiple of a power of two has its low mantissa
+/// bits zero, which the byte-stream-split encoding stores in a fraction of the space.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Resolution {
+    /// The relative resolution $\varepsilon$.
+    pub relative: f64,
+    /// $g_j$ per control (0: exact).
+    grid: Vec<f64>,
+}
+
+impl Resolution {
+    /// The resolution $\varepsilon$ of each control's range `ranges` ($\varepsilon$ and the
+    /// ranges finite and not negative; anything else stores that control exactly).
+    pub fn relative(relative: f64, ranges: &[f64]) -> Self {
+        let grid = ranges
+            .iter()
+            .map(|&r| {
+                let step = relative * r;
+                if step.is_finite() && step > 0.0 {
+                    2f64.powi(step.log2().floor() as i32)
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        Self { relative, grid }
+    }
+
+    /// Control `j`'s value `v` as stored.
+    pub fn round(&self, j: usize, v: f64) -> f64 {
+        match self.grid.get(j) {
+            Some(&g) if g > 0.0 => (v / g).round() * g,
+            _ => v,
+        }
+    }
+
+    /// The grid $g_j$ of control `j` (0: stored exactly).
+    pub fn grid(&self, j: usize) -> f64 {
+        self.grid.get(j).copied().unwrap_or(0.0)
+    }
+}
+
 /// Writes curves atomically. Every row's latent point has the same dimension (0: none).
 pub fn write(path: &Path, c: &Curves, provenance: &Provenance) -> Result<()> {
     let mut w = Writer::create(path, c.fps, &c.controls, provenance);
@@ -95,6 +148,8 @@ pub fn write(path: &Path, c: &Curves, provenance: &Provenance) -> Result<()> {
 pub struct Writer {
     path: PathBuf,
     provenance: Provenance,
+    /// How the controls are stored (`None`: exactly).
+    resolution: Option<Resolution>,
     /// The open file and its rows' latent dimension, from the first rows written.
     table: Option<(TableWriter, usize)>,
     /// Rows not yet written (fps and controls as the table's).
@@ -107,7 +162,14 @@ impl Writer {
     /// A curves file of `controls` at `fps`, to be filled.
     pub fn create(path: &Path, fps: f64, controls: &[String], provenance: &Provenance) -> Self {
         let buf = Curves { fps, controls: controls.to_vec(), ..Default::default() };
-        Self { path: path.into(), provenance: provenance.clone(), table: None, buf, written: 0 }
+        Self { path: path.into(), provenance: provenance.clone(), resolution: None, table: None, buf, written: 0 }
+    }
+
+    /// Stores the controls to `resolution` (one grid per control of the writer's) instead
+    /// of exactly: for tables read only by measures whose precision is far coarser.
+    pub fn with_resolution(mut self, resolution: Resolution) -> Self {
+        self.resolution = Some(resolution);
+        self
     }
 
     /// Appends one script played frame by frame (see [`Curves::push_script`]).
@@ -152,15 +214,18 @@ impl Writer {
                 (t, q)
             }
         };
-        table.write(columns(c, q, self.written, &self.path)?)?;
+        table.write(columns(c, q, self.written, &self.path, self.resolution.as_ref())?)?;
         self.written += c.script.len();
         Ok(())
     }
 
     fn open(&self, q: usize) -> Result<TableWriter> {
         let empty = Curves { fps: self.buf.fps, controls: self.buf.controls.clone(), ..Default::default() };
-        let meta = [("reprise.fps".into(), self.buf.fps.to_string())];
-        TableWriter::create(&self.path, CURVES, columns(&empty, q, 0, &self.path)?, &self.provenance, &meta)
+        let mut meta = vec![("reprise.fps".into(), self.buf.fps.to_string())];
+        if let Some(r) = &self.resolution {
+            meta.push(("reprise.resolution".into(), format!("{} of each control's training range", r.relative)));
+        }
+        TableWriter::create(&self.path, CURVES, columns(&empty, q, 0, &self.path, None)?, &self.provenance, &meta)
     }
 
     /// Writes the rest and puts the file in place.
@@ -173,8 +238,9 @@ impl Writer {
     }
 }
 
-/// The columns of `c`'s rows (file rows `first_row…`), each with a `q`-d latent point.
-fn columns(c: &Curves, q: usize, first_row: usize, path: &Path) -> Result<Columns> {
+/// The columns of `c`'s rows (file rows `first_row…`), each with a `q`-d latent point, the
+/// controls to `resolution` (`None`: exactly).
+fn columns(c: &Curves, q: usize, first_row: usize, path: &Path, resolution: Option<&Resolution>) -> Result<Columns> {
     if let Some(r) = c.x.iter().position(|x| x.len() != q) {
         return Err(crate::error::ArtifactError::Invalid {
             path: path.into(),
@@ -192,7 +258,14 @@ fn columns(c: &Curves, q: usize, first_row: usize, path: &Path) -> Result<Column
     }
     let n = c.controls.len();
     for (j, name) in c.controls.iter().enumerate() {
-        cols = cols.f64(name, c.values.iter().skip(j).step_by(n.max(1)).copied().collect());
+        let values = c.values.iter().skip(j).step_by(n.max(1));
+        cols = cols.f64(
+            name,
+            match resolution {
+                Some(r) => values.map(|&v| r.round(j, v)).collect(),
+                None => values.copied().collect(),
+            },
+        );
     }
     Ok(cols)
 }
@@ -352,6 +425,37 @@ mod tests {
         let path = dir.path().join("c.parquet");
         write(&path, &c, &Provenance::new("t", "0", serde_json::json!({}))).unwrap();
         assert_eq!(read(&path).unwrap(), c);
+    }
+
+    /// The grid is the largest power of two within ε of the range; values land on it,
+    /// within half a step; a still control, ε = 0 and a non-finite range store exactly;
+    /// a table written to a resolution says so and reads back rounded.
+    #[test]
+    fn controls_are_stored_to_a_power_of_two_grid_of_their_range() {
+        let r = Resolution::relative(1e-6, &[3.0, 0.0, 1.0, f64::NAN]);
+        assert_eq!(r.grid(0), 2f64.powi(-19), "2^-19 = 1.9e-6 <= 3e-6 < 2^-18");
+        assert_eq!(r.grid(2), 2f64.powi(-20), "2^-20 = 9.5e-7 <= 1e-6");
+        assert_eq!((r.grid(1), r.grid(3), r.grid(9)), (0.0, 0.0, 0.0));
+        for v in [0.1, -2.71, 1.0 / 3.0, 70.0 + 1e-9] {
+            let q = r.round(0, v);
+            assert!((q - v).abs() <= r.grid(0) / 2.0, "{v} -> {q}");
+            assert_eq!(q / r.grid(0), (q / r.grid(0)).round(), "a multiple of the grid");
+            assert_eq!(r.round(1, v), v);
+        }
+        assert_eq!(Resolution::relative(0.0, &[3.0]).round(0, 0.1), 0.1);
+
+        let dir = tempfile::tempdir().unwrap();
+        let controls = vec!["jaw".to_string(), "brow".to_string()];
+        let pv = Provenance::new("t", "0", serde_json::json!({}));
+        let path = dir.path().join("c.parquet");
+        let mut w =
+            Writer::create(&path, 24.0, &controls, &pv).with_resolution(Resolution::relative(0.01, &[1.0, 0.0]));
+        w.push_script("r0", [Frame::plain("a", &[0.123456, 0.123456])]).unwrap();
+        w.finish().unwrap();
+        let back = read(&path).unwrap();
+        assert_eq!(back.values, [0.125, 0.123456], "jaw to 2^-7 of its range; brow (still) exact");
+        let meta = crate::table::metadata_of(&path).unwrap();
+        assert_eq!(meta["reprise.resolution"], "0.01 of each control's training range");
     }
 
     /// Latent points of different dimensions in one table are refused, nothing written.

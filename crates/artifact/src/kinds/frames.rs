@@ -72,6 +72,19 @@ impl Frames {
         let n = self.controls.len();
         (0..self.rows()).map(|r| self.values[r * n + c]).collect()
     }
+    /// Each control's range, max − min over the frames (0 with no frames).
+    pub fn ranges(&self) -> Vec<f64> {
+        let n = self.controls.len();
+        let mut lo = vec![f64::INFINITY; n];
+        let mut hi = vec![f64::NEG_INFINITY; n];
+        for r in 0..self.rows() {
+            for (j, &v) in self.row(r).iter().enumerate() {
+                lo[j] = lo[j].min(v);
+                hi[j] = hi[j].max(v);
+            }
+        }
+        lo.iter().zip(&hi).map(|(l, h)| if h >= l { h - l } else { 0.0 }).collect()
+    }
 
     fn columns(&self, mut cols: Columns) -> Columns {
         cols = cols.str(CLIP, &self.clip).i64(FRAME, self.frame.clone()).f64(TIME, self.time.clone());
