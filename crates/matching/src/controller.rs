@@ -25,6 +25,13 @@
 //!   \dot z_j)$ ([`crate::Inertializer::transition`]), playback continues at $j + 1$
 //!   (searchable frames have continuation), output $= z_{j+1} + o_x$ after one decay.
 //!
+//! **Short labels.** The target's candidates are its searchable frames with their own
+//! continuation $c_L$ ([`FeatureDb::continuation_of`]): the full $c = \max(o_{\max}, 1)$
+//! frames, or, for a label whose segments are all too short for it, its longest segment's
+//! length minus 1 — such a label is served with a shorter window instead of failing
+//! ([`Controller::continuation`], [`Playback::window`]). Only a label of one-frame segments
+//! cannot be jumped into.
+//!
 //! The latency (first output frame from the target) is therefore
 //! $\min(\texttt{first\_search},\ \text{segment\_end}(s) - s)$ for a start outside the target.
 
@@ -96,6 +103,7 @@ pub struct Controller<'a> {
     interval: usize,
     target: u32,
     allowed: FrameSet,
+    continuation: usize,
     current: usize,
     until_search: usize,
     inert: Inertializer,
@@ -111,7 +119,8 @@ impl<'a> Controller<'a> {
     /// # Errors
     /// [`MatchError::Mismatch`] if `feats` was built for another database,
     /// [`MatchError::FrameOutOfRange`], [`MatchError::Param`] for bad settings,
-    /// [`MatchError::NoSearchableFrames`] if `target` has no searchable frame.
+    /// [`MatchError::NoSearchableFrames`] if `target` has no searchable frame (no frame, or
+    /// only one-frame segments).
     pub fn new(
         db: &'a Database,
         feats: &'a FeatureDb,
@@ -131,6 +140,7 @@ impl<'a> Controller<'a> {
             interval: settings.interval_frames(db.fps()),
             target,
             allowed: FrameSet::empty(db.len()),
+            continuation: feats.continuation(),
             current: start,
             until_search: first_search,
             inert,
@@ -147,15 +157,25 @@ impl<'a> Controller<'a> {
     /// on a sharp input change).
     ///
     /// # Errors
-    /// [`MatchError::NoSearchableFrames`]; the previous target is kept.
+    /// [`MatchError::NoSearchableFrames`] if `target` has no searchable frame (no frame, or
+    /// only one-frame segments); the previous target is kept.
     pub fn set_target(&mut self, target: u32) -> Result<()> {
         let allowed = self.feats.searchable_with_label(self.db, target)?;
-        if allowed.is_empty() {
-            return Err(MatchError::NoSearchableFrames { label: target, needed: self.feats.continuation() });
-        }
+        let continuation = self.feats.continuation_of(target);
+        let Some(continuation) = continuation.filter(|_| !allowed.is_empty()) else {
+            return Err(MatchError::NoSearchableFrames { label: target, needed: 1 });
+        };
         self.target = target;
         self.allowed = allowed;
+        self.continuation = continuation;
         Ok(())
+    }
+
+    /// The continuation the target is searched with, in frames
+    /// ([`FeatureDb::continuation_of`]): [`FeatureDb::continuation`], or less for a label
+    /// whose segments are all shorter.
+    pub fn continuation(&self) -> usize {
+        self.continuation
     }
 
     /// Makes the next step search regardless of the timer.
@@ -243,7 +263,7 @@ pub fn transition(
     settings: &ControllerSettings,
 ) -> Result<Playback> {
     let mut c = Controller::new(db, feats, request.start, request.target, request.first_search, settings)?;
-    let mut out = Playback::new(db.dim(), request.target, request.frames);
+    let mut out = Playback::new(db.dim(), request.target, c.continuation(), request.frames);
     for _ in 0..request.frames {
         let s = c.step()?;
         out.push(c.output(), s.frame, s.label, s.switched, 0.0);
@@ -254,7 +274,7 @@ pub fn transition(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::two_sines;
+    use crate::testutil::{short_clips, two_sines};
 
     fn request(start: usize, target: u32, first_search: usize, frames: usize) -> TransitionRequest {
         TransitionRequest { start, target, first_search, frames }
@@ -352,13 +372,58 @@ mod tests {
         assert!(h24 > after);
     }
 
+    /// Label 1's only segments are 6 frames long: no frame has the 12 frames of
+    /// continuation the features look ahead, which used to fail every request into it
+    /// (`NoSearchableFrames`). It is now searched with $c_1 = 5$ frames: its candidates are
+    /// the segments' first frames, so every jump shows a segment's frames 2..6 and the
+    /// segment end forces the next search 5 frames later.
+    #[test]
+    fn a_short_label_is_reached_with_a_shorter_continuation() {
+        let (db, feats) = short_clips(6, 8);
+        let s = ControllerSettings::default();
+        assert_eq!((feats.continuation(), feats.continuation_of(1)), (12, Some(5)));
+        let out = transition(&db, &feats, &request(10, 1, 1, 40), &s).unwrap();
+        assert_eq!((out.latency, out.window), (Some(1), 5));
+        assert!(out.labels[1..].iter().all(|&l| l == 1));
+        let switches: Vec<usize> = (0..out.len()).filter(|&k| out.switches[k]).collect();
+        assert_eq!(switches, (1..40).step_by(5).collect::<Vec<_>>());
+        for &k in &switches {
+            assert_eq!(out.frames[k], db.segment_start(out.frames[k]) + 1, "output frame {k}");
+        }
+        // The long label is searched as before: the full continuation, the full-window set.
+        let full = FrameSet::from_predicate(db.len(), |t| db.label(t) == 0 && t + 12 <= db.segment_end(t));
+        assert_eq!(feats.searchable_with_label(&db, 0).unwrap(), full);
+        let back = transition(&db, &feats, &request(130, 0, 0, 20), &s).unwrap();
+        assert_eq!((back.latency, back.window), (Some(0), 12));
+        // Label 2 has only one-frame segments: still no frame to jump to.
+        assert!(matches!(
+            transition(&db, &feats, &request(10, 2, 0, 5), &s),
+            Err(MatchError::NoSearchableFrames { label: 2, needed: 1 })
+        ));
+    }
+
+    /// Regression (a character whose clips of a label are 11 frames, window 12): motion
+    /// matching answered none of the requests into that label; it now reaches it, searching
+    /// with a 10-frame continuation.
+    #[test]
+    fn regression_eleven_frame_clips_are_searched_with_a_ten_frame_continuation() {
+        let (db, feats) = short_clips(11, 5);
+        assert_eq!(feats.continuation_of(1), Some(10));
+        let out = transition(&db, &feats, &request(30, 1, 0, 48), &ControllerSettings::default()).unwrap();
+        assert_eq!((out.latency, out.window), (Some(0), 10));
+        assert!(out.labels.iter().all(|&l| l == 1));
+        assert!((0..out.len())
+            .filter(|&k| out.switches[k])
+            .all(|k| db.segment_start(out.frames[k]) + 1 == out.frames[k]));
+    }
+
     #[test]
     fn bad_requests_are_errors() {
         let (db, feats) = two_sines(1.0, 24);
         let s = ControllerSettings::default();
         assert!(matches!(
             transition(&db, &feats, &request(10, 7, 0, 5), &s),
-            Err(MatchError::NoSearchableFrames { label: 7, needed: 12 })
+            Err(MatchError::NoSearchableFrames { label: 7, needed: 1 })
         ));
         assert!(matches!(
             transition(&db, &feats, &request(240, 1, 0, 5), &s),
@@ -370,13 +435,14 @@ mod tests {
         assert!(matches!(transition(&db, &feats, &request(0, 1, 0, 5), &bad), Err(MatchError::Param { .. })));
         let (other, _) = two_sines(1.0, 12);
         assert!(matches!(transition(&other, &feats, &request(0, 1, 0, 5), &s), Err(MatchError::Mismatch { .. })));
-        // A label whose only segment is too short to have a searchable frame.
-        let z = vec![0.0; 30];
-        let labels: Vec<u32> = (0..30).map(|t| u32::from(t >= 25)).collect();
+        // A label whose only segment is one frame: no frame to jump to.
+        let z = vec![0.0; 26];
+        let labels: Vec<u32> = (0..26).map(|t| u32::from(t >= 25)).collect();
         let db = Database::new(z.clone(), 1, labels.clone(), &labels, 24.0).unwrap();
         let feats = FeatureDb::build(&db, &z, 1, &crate::FeatureParams::default()).unwrap();
         let mut c = Controller::new(&db, &feats, 0, 0, 0, &s).unwrap();
-        assert!(matches!(c.set_target(1), Err(MatchError::NoSearchableFrames { label: 1, .. })));
+        assert!(matches!(c.set_target(1), Err(MatchError::NoSearchableFrames { label: 1, needed: 1 })));
+        assert_eq!(c.continuation(), 12, "the previous target is kept");
         // Every candidate excluded at a segment end: a dead end, not a panic.
         let s = ControllerSettings { exclude_radius: Some(100), ..s };
         let mut c = Controller::new(&db, &feats, 10, 0, 100, &s).unwrap();

@@ -2,8 +2,12 @@
 //!
 //! On a request while start frame $s$ is shown, pick the target frame $j$ nearest the
 //! current pose in scaled control space, $j = \arg\min_t \lVert z_t - z_s\rVert^2$ over the
-//! target's frames with `blend_frames` $= k$ frames of continuation in their segment
-//! ($t + \max(k,1) \le$ segment end), lowest index on ties. Then for $p = 0,\dots,k-1$
+//! target's frames with $k$ frames of continuation in their segment
+//! ($t + \max(k,1) \le$ segment end), lowest index on ties. The blend is $k =$
+//! `blend_frames` frames, or, for a target $L$ whose segments are all too short for it,
+//! the longest they allow: $k_L = \min(\texttt{blend\_frames},\ r_L)$ with $r_L$ the label's
+//! longest segment's length minus 1 ([`crossfade_blend`], [`Database::label_window`]); only
+//! a label of one-frame segments cannot be crossfaded into. Then for $p = 0,\dots,k-1$
 //! output
 //! $$\alpha(p)\,z^A_p + (1-\alpha(p))\,z_{j+1+p},$$
 //! with $\alpha$ the Motion Graphs ease ([`reprise_transition_graph::blend_weight`]: $\alpha(-1) =
@@ -19,10 +23,25 @@ use crate::playback::Playback;
 use crate::search::Match;
 use reprise_transition_graph::blend_weight;
 
-/// The frames of `label` a crossfade of `blend_frames` may start from.
+/// The blend a crossfade into `label` uses when asked for `blend_frames`, in frames:
+/// $k_L = \min(\texttt{blend\_frames},\ r_L)$ ([`Database::label_window`]) — `blend_frames`
+/// unless every segment of the label is too short for it. `None` if the label has no frame
+/// with a next frame (no frame, or only one-frame segments).
+pub fn crossfade_blend(db: &Database, label: u32, blend_frames: usize) -> Option<usize> {
+    db.label_window(label, blend_frames)
+}
+
+/// The frames of `label` a crossfade asked for `blend_frames` may start from: those with
+/// $\max(k_L, 1)$ frames of continuation in their segment, $k_L$ the blend it uses
+/// ([`crossfade_blend`]); empty if there is none.
 pub fn crossfade_candidates(db: &Database, label: u32, blend_frames: usize) -> FrameSet {
-    let need = blend_frames.max(1);
-    FrameSet::from_predicate(db.len(), |t| db.label(t) == label && t + need <= db.segment_end(t))
+    match crossfade_blend(db, label, blend_frames) {
+        Some(k) => {
+            let need = k.max(1);
+            FrameSet::from_predicate(db.len(), |t| db.label(t) == label && t + need <= db.segment_end(t))
+        }
+        None => FrameSet::empty(db.len()),
+    }
 }
 
 /// The candidate nearest `pose` in squared Euclidean distance on $z$ (lowest index on
@@ -51,20 +70,23 @@ pub fn nearest_pose(db: &Database, pose: &[f64], candidates: &FrameSet) -> Resul
     Ok(best)
 }
 
-/// Crossfades from `start` into label `target` over `blend_frames`, producing `frames`
-/// output frames (frame 0 follows the request).
+/// Crossfades from `start` into label `target` over `blend_frames` — over
+/// [`crossfade_blend`] frames if the target's segments are all shorter (the blend used is
+/// [`Playback::window`]) — producing `frames` output frames (frame 0 follows the request).
 ///
 /// # Errors
 /// [`MatchError::FrameOutOfRange`], [`MatchError::NoSearchableFrames`] if `target` has no
-/// frame with `blend_frames` frames of continuation.
+/// frame with a next frame in its segment (no frame, or only one-frame segments).
 pub fn crossfade(db: &Database, start: usize, target: u32, blend_frames: usize, frames: usize) -> Result<Playback> {
     db.check_frame(start)?;
+    let none = MatchError::NoSearchableFrames { label: target, needed: 1 };
+    let blend_frames = crossfade_blend(db, target, blend_frames).ok_or_else(|| none.clone())?;
     let candidates = crossfade_candidates(db, target, blend_frames);
     let pick = |from: usize| -> Result<usize> {
         let m = nearest_pose(db, db.row(from), &candidates)?;
-        m.map(|m| m.frame + 1).ok_or(MatchError::NoSearchableFrames { label: target, needed: blend_frames.max(1) })
+        m.map(|m| m.frame + 1).ok_or_else(|| none.clone())
     };
-    let mut out = Playback::new(db.dim(), target, frames);
+    let mut out = Playback::new(db.dim(), target, blend_frames, frames);
     let mut row = vec![0.0; db.dim()];
     // `a`: the frame being left; `b`: the target frame playing; `p`: frames into the blend.
     let (mut a, mut b, mut p) = (start, pick(start)?, 0);
@@ -96,7 +118,7 @@ pub fn crossfade(db: &Database, start: usize, target: u32, blend_frames: usize, 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::two_sines;
+    use crate::testutil::{short_clips, two_sines};
     use approx::assert_abs_diff_eq;
 
     /// One control. Label 0: frames 0..=5, z = 0..5. Label 1: frames 6..=13,
@@ -156,10 +178,73 @@ mod tests {
         assert!((1..20).all(|k| dist(out.row(k), out.row(k - 1)) < 0.25));
     }
 
+    /// Label 1's only segment (frames 6..=13) is 8 frames long: a blend of 8 frames used to
+    /// fail; it now blends over the 7 frames the segment allows, from its first frame, the
+    /// only one with 7 frames after it (α(p) for k = 7). Asked for 2, it blends over 2.
+    #[test]
+    fn a_blend_longer_than_the_target_segments_is_shortened_to_them() {
+        let db = toy();
+        assert_eq!((crossfade_blend(&db, 1, 8), crossfade_blend(&db, 1, 2)), (Some(7), Some(2)));
+        assert_eq!(crossfade_candidates(&db, 1, 8).iter().collect::<Vec<_>>(), [6]);
+        let out = crossfade(&db, 3, 1, 8, 9).unwrap();
+        assert_eq!((out.window, out.latency), (7, Some(0)));
+        assert_eq!(out.frames, [7, 8, 9, 10, 11, 12, 13, 7, 8]);
+        for p in 0..7 {
+            assert_abs_diff_eq!(out.source_weight[p], blend_weight(p as f64, 7), epsilon = 1e-15);
+            let want =
+                out.source_weight[p] * db.row((4 + p).min(5))[0] + (1.0 - out.source_weight[p]) * db.row(7 + p)[0];
+            assert_abs_diff_eq!(out.row(p)[0], want, epsilon = 1e-12);
+        }
+        assert_eq!(out.source_weight[6], 0.0);
+        assert_eq!(crossfade(&db, 3, 1, 2, 5).unwrap().window, 2);
+    }
+
+    /// Label 1's only segments are 6 frames long, label 0's one is 120: a 12-frame crossfade
+    /// into label 1 (which failed with `NoSearchableFrames`) now blends over 5 frames from a
+    /// segment's first frame; into label 0 it is unchanged (12 frames, the full-window
+    /// candidates); label 2 has only one-frame segments and still fails.
+    #[test]
+    fn a_short_label_is_crossfaded_into_over_its_longest_continuation() {
+        let (db, _) = short_clips(6, 8);
+        assert_eq!(crossfade_blend(&db, 1, 12), Some(5));
+        let starts: Vec<usize> = (120..168).step_by(6).collect();
+        assert_eq!(crossfade_candidates(&db, 1, 12).iter().collect::<Vec<_>>(), starts);
+        let out = crossfade(&db, 10, 1, 12, 30).unwrap();
+        assert_eq!((out.window, out.latency), (5, Some(0)));
+        assert!(out.labels.iter().all(|&l| l == 1));
+        assert_eq!(out.switches.iter().filter(|&&b| b).count(), 6, "a new 5-frame blend per segment");
+        assert_eq!(
+            out.source_weight[..5].iter().map(|&a| a > 0.0).collect::<Vec<_>>(),
+            [true, true, true, true, false]
+        );
+        let full = FrameSet::from_predicate(db.len(), |t| db.label(t) == 0 && t + 12 <= db.segment_end(t));
+        assert_eq!(crossfade_candidates(&db, 0, 12), full);
+        assert_eq!(crossfade(&db, 130, 0, 12, 20).unwrap().window, 12);
+        assert!(matches!(crossfade(&db, 10, 2, 12, 5), Err(MatchError::NoSearchableFrames { label: 2, needed: 1 })));
+        assert!(crossfade_candidates(&db, 2, 12).is_empty());
+    }
+
+    /// Regression (a label whose clips are 11 frames, blend 12): the crossfade answered none
+    /// of the requests into it; it now blends over 10 frames.
+    #[test]
+    fn regression_eleven_frame_clips_are_crossfaded_over_ten_frames() {
+        let (db, _) = short_clips(11, 5);
+        let out = crossfade(&db, 30, 1, 12, 40).unwrap();
+        assert_eq!((out.window, out.latency), (10, Some(0)));
+        assert!(out.labels.iter().all(|&l| l == 1));
+        let weights: Vec<f64> = (0..10).map(|p| blend_weight(p as f64, 10)).collect();
+        assert_eq!(out.source_weight[..10], weights[..]);
+    }
+
     #[test]
     fn bad_input_is_an_error() {
         let db = toy();
-        assert!(matches!(crossfade(&db, 3, 1, 8, 5), Err(MatchError::NoSearchableFrames { label: 1, needed: 8 })));
+        let one_frame = Database::new(vec![0.0, 1.0, 2.0], 1, vec![0, 0, 1], &[0, 0, 1], 24.0).unwrap();
+        assert!(matches!(
+            crossfade(&one_frame, 0, 1, 8, 5),
+            Err(MatchError::NoSearchableFrames { label: 1, needed: 1 })
+        ));
+        assert!(matches!(crossfade(&one_frame, 0, 1, 0, 5), Err(MatchError::NoSearchableFrames { .. })));
         assert!(matches!(crossfade(&db, 3, 9, 2, 5), Err(MatchError::NoSearchableFrames { .. })));
         assert!(matches!(crossfade(&db, 14, 1, 2, 5), Err(MatchError::FrameOutOfRange { .. })));
         let cand = crossfade_candidates(&db, 1, 2);

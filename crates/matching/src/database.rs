@@ -4,6 +4,17 @@
 //! A **segment** is a maximal run of consecutive frames sharing a segment id (one take or
 //! one labeled clip). Frame $t+1$ follows $t$ in playback only inside a segment; the last
 //! frame of a segment has no next frame.
+//!
+//! **A label's window.** A jump into label $L$ plays on from the frame jumped to, so a
+//! method that wants $w$ frames of continuation after that frame (motion matching's
+//! feature horizon, the crossfade's blend) can only be served by a frame with $w$ frames
+//! after it in its segment. A label whose segments are all shorter gets the longest window
+//! they allow instead: $w_L = \min(w,\ r_L)$ frames, with $r_L$ the label's **longest
+//! continuation** $\max_{t:\,\ell_t = L}(\text{segment\_end}(t) - t)$ (its longest segment's
+//! length minus 1), and none at all when $r_L = 0$ (only one-frame segments: no frame has a
+//! next one to play) — [`Database::label_window`].
+
+use std::collections::BTreeMap;
 
 use crate::error::{check_finite, check_len, MatchError, Result};
 
@@ -15,6 +26,8 @@ pub struct Database {
     labels: Vec<u32>,
     /// First and last frame of each frame's segment.
     bounds: Vec<(usize, usize)>,
+    /// Per label present, its longest continuation $r_L$ (frames).
+    reach: BTreeMap<u32, usize>,
     fps: f64,
 }
 
@@ -52,7 +65,12 @@ impl Database {
         check_len("segments", n, segments.len())?;
         check_finite("controls", &z, dim)?;
         let bounds = segment_bounds(segments)?;
-        Ok(Self { z, dim, labels, bounds, fps })
+        let mut reach = BTreeMap::new();
+        for (t, (&label, &(_, end))) in labels.iter().zip(&bounds).enumerate() {
+            let r = reach.entry(label).or_insert(0);
+            *r = (*r).max(end - t);
+        }
+        Ok(Self { z, dim, labels, bounds, reach, fps })
     }
 
     /// Number of frames $n$.
@@ -93,6 +111,28 @@ impl Database {
     /// Labels of all frames.
     pub fn labels(&self) -> &[u32] {
         &self.labels
+    }
+
+    /// The labels that have frames, in increasing order.
+    pub fn label_ids(&self) -> impl Iterator<Item = u32> + '_ {
+        self.reach.keys().copied()
+    }
+
+    /// The longest continuation $r_L$ label `label` offers, in frames: the most frames any
+    /// of its frames has after it in its own segment, $\max_{t:\,\ell_t = L}
+    /// (\text{segment\_end}(t) - t)$ — its longest segment's length minus 1 (for segments of
+    /// one label). `None` if no frame has the label.
+    pub fn longest_continuation(&self, label: u32) -> Option<usize> {
+        self.reach.get(&label).copied()
+    }
+
+    /// The window a jump into `label` gets when `window` frames of continuation are wanted:
+    /// $w_L = \min(\texttt{window},\ r_L)$ frames ([`Database::longest_continuation`]) —
+    /// `window` itself when some frame of the label has that much continuation, shorter
+    /// when all its segments are shorter. `None` when the label has no frame with a next
+    /// frame (no frame, or only one-frame segments): nothing can be played after a jump.
+    pub fn label_window(&self, label: u32, window: usize) -> Option<usize> {
+        self.longest_continuation(label).filter(|&r| r >= 1).map(|r| window.min(r))
     }
 
     /// First frame of `t`'s segment.
@@ -301,6 +341,22 @@ mod tests {
             Database::new(vec![0.0; 4], 0, vec![0; 2], &[0; 2], 24.0),
             Err(MatchError::ZeroDimension { .. })
         ));
+    }
+
+    /// Label 0: segments of 5 and 3 frames; label 1: one-frame segments; label 2: one
+    /// segment holding a label-2 frame, then two label-3 frames.
+    #[test]
+    fn longest_continuation_and_label_window() {
+        let labels = vec![0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 2, 3, 3];
+        let segments = [0, 0, 0, 0, 0, 1, 1, 1, 2, 3, 4, 4, 4];
+        let db = Database::new(vec![0.0; 13], 1, labels, &segments, 24.0).unwrap();
+        assert_eq!(db.label_ids().collect::<Vec<_>>(), [0, 1, 2, 3]);
+        assert_eq!([0, 1, 2, 3, 4].map(|l| db.longest_continuation(l)), [Some(4), Some(0), Some(2), Some(1), None]);
+        assert_eq!(db.label_window(0, 12), Some(4));
+        assert_eq!(db.label_window(0, 3), Some(3));
+        assert_eq!(db.label_window(0, 0), Some(0));
+        assert_eq!(db.label_window(2, 12), Some(2));
+        assert_eq!((db.label_window(1, 12), db.label_window(4, 12)), (None, None));
     }
 
     #[test]

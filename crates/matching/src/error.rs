@@ -76,16 +76,20 @@ pub enum MatchError {
         /// Frames the object covers.
         actual: usize,
     },
-    /// The target label has no frame the search may jump to (none, or none with enough
-    /// continuation left in its segment).
+    /// The target label has no frame a jump may land on: it has no frame, or only
+    /// one-frame segments. (A label whose segments are merely shorter than the wanted
+    /// window is served with a shorter one — [`crate::Database::label_window`] — so the
+    /// least a candidate needs is 1 frame of continuation.)
     #[error(
-        "label {label} has no searchable frame (a frame needs {needed} frames of \
-         continuation in its segment)"
+        "label {label} has no searchable frame (a frame needs {needed} frame{} of \
+         continuation in its segment)",
+        plural(.needed)
     )]
     NoSearchableFrames {
         /// The requested label.
         label: u32,
-        /// Frames of continuation a candidate needs.
+        /// Frames of continuation a candidate needs at the least (1: the window shrinks to
+        /// the label's segments, down to one frame).
         needed: usize,
     },
     /// Playback reached the end of a segment and no allowed frame could take over
@@ -100,6 +104,15 @@ pub enum MatchError {
         /// The target label.
         label: u32,
     },
+}
+
+/// "s" after a count other than 1.
+fn plural(n: &usize) -> &'static str {
+    if *n == 1 {
+        ""
+    } else {
+        "s"
+    }
 }
 
 /// `Result` with [`MatchError`].

@@ -23,8 +23,19 @@
 //! $w_g^2$. A group constant over the database ($\sum\sigma_j = 0$) gets $s_g = 1/w_g$.
 //!
 //! **Searchable frames**: a frame can be jumped to only if its whole future lies in its
-//! segment, $t + \max(o_{\max}, 1) \le s_1$ (the reference's `ignore_range_end`; at least
-//! one frame so playback can continue after the jump).
+//! segment, $t + c \le s_1$ with the **continuation** $c = \max(o_{\max}, 1)$ frames (the
+//! reference's `ignore_range_end`; at least one frame so playback can continue after the
+//! jump). A label $L$ none of whose frames has $c$ frames left in its segment (all its
+//! segments hold at most $c$ frames) is searched with the longest continuation they allow
+//! instead, $c_L = \min(c,\ r_L)$ frames with $r_L$ the label's longest segment's length
+//! minus 1 ([`Database::label_window`]): its searchable frames are those with
+//! $t + c_L \le s_1$. The features need no change for it — the future groups are already
+//! clamped at the segment end, $y_{\min(t+o,\,s_1)}$, so this is the reference's own
+//! treatment of segment ends applied per label. Every label with a frame of full
+//! continuation keeps $c_L = c$ and exactly the set above; a label of one-frame segments
+//! ($r_L = 0$) has no searchable frame ([`FeatureDb::continuation_of`] is `None`).
+
+use std::collections::BTreeMap;
 
 use crate::database::{Database, FrameSet};
 use crate::error::{check_finite, check_len, MatchError, Result};
@@ -128,6 +139,8 @@ pub struct FeatureDb {
     pub(crate) features: Vec<f64>,
     pub(crate) searchable: FrameSet,
     continuation: usize,
+    /// Per label with a searchable frame, its continuation $c_L \in 1..=c$ (frames).
+    label_continuation: BTreeMap<u32, usize>,
     pub(crate) blocks: Blocks,
 }
 
@@ -165,9 +178,13 @@ impl FeatureDb {
             normalize_in_place(row, &mean, &col_scale);
         }
         let continuation = params.offsets.iter().copied().max().unwrap_or(0).max(1);
-        let searchable = FrameSet::from_predicate(n, |t| t + continuation <= db.segment_end(t));
+        let label_continuation: BTreeMap<u32, usize> =
+            db.label_ids().filter_map(|l| db.label_window(l, continuation).map(|c| (l, c))).collect();
+        let searchable = FrameSet::from_predicate(n, |t| {
+            label_continuation.get(&db.label(t)).is_some_and(|&c| t + c <= db.segment_end(t))
+        });
         let blocks = Blocks::build(&features, dim, &searchable);
-        Ok(Self { n, dim, groups, mean, col_scale, features, searchable, continuation, blocks })
+        Ok(Self { n, dim, groups, mean, col_scale, features, searchable, continuation, label_continuation, blocks })
     }
 
     /// Number of frames.
@@ -200,15 +217,25 @@ impl FeatureDb {
         &self.features[t * self.dim..(t + 1) * self.dim]
     }
 
-    /// Frames a search may return: those with `continuation()` frames left in their
-    /// segment.
+    /// Frames a search may return: those of each label $L$ with $c_L$
+    /// ([`FeatureDb::continuation_of`]) frames left in their segment — `continuation()`
+    /// frames for every label that has a frame with that much.
     pub fn searchable(&self) -> &FrameSet {
         &self.searchable
     }
 
-    /// Frames of continuation a searchable frame has: $\max(o_{\max}, 1)$.
+    /// The full continuation $c = \max(o_{\max}, 1)$ in frames: what a searchable frame of
+    /// a label with long enough segments has left in its segment.
     pub fn continuation(&self) -> usize {
         self.continuation
+    }
+
+    /// The continuation label `label` is searched with, in frames:
+    /// $c_L = \min(c,\ r_L)$ (module docs) — [`FeatureDb::continuation`] unless every segment
+    /// of the label is too short for it, then its longest segment's length minus 1. `None`
+    /// if the label has no searchable frame (no frame, or only one-frame segments).
+    pub fn continuation_of(&self, label: u32) -> Option<usize> {
+        self.label_continuation.get(&label).copied()
     }
 
     /// Normalises a raw feature vector (laid out as [`FeatureDb::groups`]) into a query.
@@ -325,6 +352,37 @@ mod tests {
         assert_abs_diff_eq!(f.features(3)[5], 35.0 / s_vel, epsilon = 1e-12);
         // offsets 1: frames 0..=2 searchable, the last is not.
         assert_eq!(f.searchable().iter().collect::<Vec<_>>(), [0, 1, 2]);
+    }
+
+    /// Label 0: two 40-frame segments; label 1: 6-frame segments and a 4-frame one;
+    /// label 2: one-frame segments. Label 1 has no frame with 12 frames of continuation, so
+    /// it is searched with $c_1 = 6 - 1 = 5$: exactly the first frame of each 6-frame
+    /// segment (the 4-frame one has none). Label 0 keeps the full rule $t + 12 \le s_1$.
+    #[test]
+    fn a_short_label_is_searched_with_its_longest_continuation() {
+        let lens = [(0, 40), (1, 6), (0, 40), (1, 4), (2, 1), (1, 6), (2, 1), (2, 1)];
+        let (db, y) = segments_db(&lens);
+        let f = FeatureDb::build(&db, &y, 2, &FeatureParams::default()).unwrap();
+        assert_eq!(f.continuation(), 12);
+        assert_eq!([0, 1, 2, 3].map(|l| f.continuation_of(l)), [Some(12), Some(5), None, None]);
+        let full = FrameSet::from_predicate(db.len(), |t| db.label(t) == 0 && t + 12 <= db.segment_end(t));
+        assert_eq!(f.searchable_with_label(&db, 0).unwrap(), full);
+        assert_eq!(full.len(), 2 * 28);
+        // Segment starts: 0, 40, 46, 86, 90, 91, 97, 98.
+        assert_eq!(f.searchable_with_label(&db, 1).unwrap().iter().collect::<Vec<_>>(), [40, 91]);
+        assert!(f.searchable_with_label(&db, 2).unwrap().is_empty());
+        assert_eq!(f.searchable().len(), 2 * 28 + 2);
+    }
+
+    /// A database of segments `(label, length)` in order, one control, with y (q = 2) a
+    /// deterministic wiggle.
+    fn segments_db(lens: &[(u32, usize)]) -> (Database, Vec<f64>) {
+        let labels: Vec<u32> = lens.iter().flat_map(|&(l, n)| std::iter::repeat_n(l, n)).collect();
+        let segments: Vec<u32> =
+            (0..lens.len() as u32).flat_map(|s| std::iter::repeat_n(s, lens[s as usize].1)).collect();
+        let n = labels.len();
+        let y: Vec<f64> = (0..2 * n).map(|i| (i as f64 * 0.37).sin()).collect();
+        (Database::new(vec![0.0; n], 1, labels, &segments, 24.0).unwrap(), y)
     }
 
     #[test]

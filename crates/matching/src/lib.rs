@@ -7,7 +7,9 @@
 //!   segment (take) per frame, the frame rate.
 //! - [`FeatureDb`]: per frame, group-normalised features from caller-supplied low-dimensional
 //!   coordinates $y_t\in\mathbb R^q$ (top PCA scores): $y_t$, $y_{t+4}$, $y_{t+8}$, $y_{t+12}$,
-//!   $\dot y_t$ ([`features`] module docs); the searchable frames; block bounding boxes.
+//!   $\dot y_t$ ([`features`] module docs); the searchable frames (12 frames of continuation
+//!   in their segment, or, for a label whose segments are all shorter, the most they allow:
+//!   [`FeatureDb::continuation_of`]); block bounding boxes.
 //! - [`search`]: [`FeatureDb::search`] (AABB-accelerated) and [`FeatureDb::search_brute`]
 //!   return the same [`Match`] over a [`FrameSet`] of allowed frames.
 //! - [`spring`]: [`Inertializer`], one critically damped spring per control
@@ -16,7 +18,8 @@
 //!   label on a 0.1 s cadence and inertialize each jump (timeline, query and switch rule in
 //!   the module docs); the output is a [`Playback`].
 //! - [`crossfade`](mod@crossfade): the floor — nearest target pose in $z$, then the Motion
-//!   Graphs ease over `blend_frames`.
+//!   Graphs ease over `blend_frames` (fewer for a label whose segments are all shorter:
+//!   [`crossfade_blend`]).
 //!
 //! ```
 //! use reprise_matching::*;
@@ -46,7 +49,7 @@ pub mod spring;
 mod testutil;
 
 pub use controller::{transition, Controller, ControllerSettings, StepInfo, TransitionRequest};
-pub use crossfade::{crossfade, crossfade_candidates, nearest_pose};
+pub use crossfade::{crossfade, crossfade_blend, crossfade_candidates, nearest_pose};
 pub use database::{Database, FrameSet};
 pub use error::{MatchError, Result};
 pub use features::{FeatureDb, FeatureGroup, FeatureParams, GroupKind};

@@ -21,13 +21,18 @@ pub struct Playback {
     pub source_weight: Vec<f64>,
     /// The requested label.
     pub target: u32,
+    /// Frames of the window into the target: the continuation motion matching searched it
+    /// with ([`crate::FeatureDb::continuation_of`]) or the crossfade's blend
+    /// ([`crate::crossfade_blend`]). Shorter than asked for when every segment of the
+    /// target is too short for the full window.
+    pub window: usize,
     /// First output frame whose database frame has the target label (`None`: not reached
     /// within the frames played).
     pub latency: Option<usize>,
 }
 
 impl Playback {
-    pub(crate) fn new(dim: usize, target: u32, capacity: usize) -> Self {
+    pub(crate) fn new(dim: usize, target: u32, window: usize, capacity: usize) -> Self {
         Self {
             dim,
             z: Vec::with_capacity(capacity * dim),
@@ -36,6 +41,7 @@ impl Playback {
             switches: Vec::with_capacity(capacity),
             source_weight: Vec::with_capacity(capacity),
             target,
+            window,
             latency: None,
         }
     }

@@ -221,7 +221,7 @@ mod tests {
     use super::*;
     use crate::database::Database;
     use crate::features::FeatureParams;
-    use crate::testutil::random_walk;
+    use crate::testutil::{random_walk, random_walk_with_short_label, SHORT_LABEL};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
@@ -279,6 +279,43 @@ mod tests {
             }
         }
         assert!(pruned_any);
+    }
+
+    /// The same on a label whose segments are all shorter than the 12-frame continuation
+    /// (6 and 11 frames, searched with 5 and 10), mixed with long segments: queries near
+    /// any frame, allowed sets of the short label's searchable frames (all, a random half)
+    /// or of every frame; a short label's own searchable frames find themselves at cost 0.
+    #[test]
+    fn accelerated_equals_brute_force_on_a_short_label() {
+        for short in [6, 11] {
+            let (db, feats) = random_walk_with_short_label(4000, 4, 21, short);
+            assert_eq!(feats.continuation_of(SHORT_LABEL), Some(short - 1));
+            let mine = feats.searchable_with_label(&db, SHORT_LABEL).unwrap();
+            assert!(mine.len() > 10, "{} short segments", mine.len());
+            assert!(mine.iter().all(|t| db.segment_start(t) == t && db.segment_end(t) == t + short - 1));
+            let mut rng = ChaCha8Rng::seed_from_u64(short as u64);
+            let n = db.len();
+            for i in 0..300 {
+                let base = rng.gen_range(0..n);
+                let noise = [0.0, 0.05, 0.5, 3.0][i % 4];
+                let q: Vec<f64> = feats.features(base).iter().map(|v| v + noise * rng.gen_range(-1.0..1.0)).collect();
+                let allowed = match i % 3 {
+                    0 => mine.clone(),
+                    1 => mine.intersection(&FrameSet::from_predicate(n, |_| rng.gen_bool(0.5))),
+                    _ => FrameSet::all(n),
+                };
+                let ex = (i % 5 == 0).then(|| Exclusion { center: base, radius: rng.gen_range(0..80) });
+                let fast = feats.search(&q, &allowed, ex).unwrap();
+                assert_eq!(fast, feats.search_brute(&q, &allowed, ex).unwrap(), "short {short}, query {i}");
+                if i % 3 == 0 {
+                    assert_eq!(db.label(fast.unwrap().frame), SHORT_LABEL);
+                }
+            }
+            for t in mine.iter() {
+                let m = feats.search(feats.features(t), &mine, None).unwrap().unwrap();
+                assert_eq!((m.frame, m.cost), (t, 0.0));
+            }
+        }
     }
 
     /// Exact ties (three identical takes) go to the lowest allowed frame in both searches,

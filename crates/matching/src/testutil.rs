@@ -8,6 +8,19 @@ use rand_chacha::ChaCha8Rng;
 /// A smooth random walk of `n` frames in `q` dimensions, cut into segments of 40–300
 /// frames with labels 0–3, and its features with the identity projection ($y = z$).
 pub(crate) fn random_walk(n: usize, q: usize, seed: u64) -> (Database, FeatureDb) {
+    walk(n, q, seed, None)
+}
+
+/// The label of [`random_walk_with_short_label`]'s short segments.
+pub(crate) const SHORT_LABEL: u32 = 4;
+
+/// [`random_walk`] where about half the segments are label [`SHORT_LABEL`], every one
+/// `short` frames long.
+pub(crate) fn random_walk_with_short_label(n: usize, q: usize, seed: u64, short: usize) -> (Database, FeatureDb) {
+    walk(n, q, seed, Some(short))
+}
+
+fn walk(n: usize, q: usize, seed: u64, short: Option<usize>) -> (Database, FeatureDb) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let (mut z, mut vel) = (vec![0.0; q], vec![0.0; q]);
     let (mut rows, mut labels, mut segments) = (Vec::new(), Vec::new(), Vec::new());
@@ -17,6 +30,9 @@ pub(crate) fn random_walk(n: usize, q: usize, seed: u64) -> (Database, FeatureDb
             seg += 1;
             left = rng.gen_range(40..300);
             label = rng.gen_range(0..4);
+            if let Some(short) = short.filter(|_| rng.gen_bool(0.5)) {
+                (left, label) = (short, SHORT_LABEL);
+            }
         }
         left -= 1;
         for (x, v) in z.iter_mut().zip(&mut vel) {
@@ -46,6 +62,32 @@ pub(crate) fn two_sines(gap: f64, fps: u32) -> (Database, FeatureDb) {
     }
     let labels: Vec<u32> = (0..2 * len).map(|t| u32::from(t >= len)).collect();
     let db = Database::new(rows.clone(), 3, labels.clone(), &labels, f64::from(fps)).unwrap();
+    let feats = FeatureDb::build(&db, &rows, 3, &FeatureParams::default()).unwrap();
+    (db, feats)
+}
+
+/// Like [`two_sines`] (C = q = 3, $y = z$, period 2 s at 24 fps), label 0 one segment of
+/// 120 frames, then label 1 cut into `clips` segments of `short` frames each (the curve
+/// going on across them, third control 1), then label 2 as three one-frame segments.
+pub(crate) fn short_clips(short: usize, clips: usize) -> (Database, FeatureDb) {
+    let w = std::f64::consts::PI / 24.0;
+    let (mut rows, mut labels, mut segments) = (Vec::new(), Vec::new(), Vec::new());
+    let mut push = |t: usize, label: u32, segment: u32| {
+        let s = t as f64 * w;
+        rows.extend_from_slice(&[s.sin(), s.cos(), f64::from(u32::from(label > 0))]);
+        labels.push(label);
+        segments.push(segment);
+    };
+    for t in 0..120 {
+        push(t, 0, 0);
+    }
+    for t in 0..short * clips {
+        push(t, 1, 1 + (t / short) as u32);
+    }
+    for t in 0..3 {
+        push(7 * t, 2, (1 + clips + t) as u32);
+    }
+    let db = Database::new(rows.clone(), 3, labels, &segments, 24.0).unwrap();
     let feats = FeatureDb::build(&db, &rows, 3, &FeatureParams::default()).unwrap();
     (db, feats)
 }

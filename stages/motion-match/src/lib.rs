@@ -14,6 +14,13 @@
 //!   frame nearest the current pose in scaled control space, crossfaded in over
 //!   `blend_frames` with the Motion Graphs blend weight while the current take plays on.
 //!
+//! A label whose clips are all too short for a system's window (12 frames of continuation
+//! for motion matching's features, `blend_frames` for the crossfade) is served with the
+//! longest window its clips allow, its longest clip's length minus 1 frames
+//! ([`reprise_matching::Database::label_window`]); the stage says so once per run, naming
+//! each such label and the window used. Only a label of one-frame clips cannot be
+//! jumped into (its requests fail, saying why).
+//!
 //! Both play the request's start frame first (the frame at which it is asked: `asked` = 0),
 //! then their output, until `hold` seconds after the end of the blend into B, or fail after
 //! `timeout` seconds without reaching B. The database holds scaled controls
@@ -30,8 +37,8 @@ use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::scales;
 use reprise_artifact::transitions::{self, Answer, Request};
 use reprise_matching::{
-    crossfade, transition, ControllerSettings, Database, FeatureDb, FeatureParams, MatchError, Playback,
-    TransitionRequest,
+    crossfade, crossfade_blend, transition, ControllerSettings, Database, FeatureDb, FeatureParams, MatchError,
+    Playback, TransitionRequest,
 };
 use reprise_numerics::pca::{Pca, PcaParams};
 use reprise_stagekit::{StageError, StageResult};
@@ -181,14 +188,47 @@ impl Corpus {
         z.iter().zip(&self.weight).map(|(z, w)| z / w).collect()
     }
 
-    /// Why a request failed, the label named (the matching library knows labels by index).
+    /// The label's name in backquotes (the matching library knows labels by index).
+    fn name(&self, l: u32) -> String {
+        self.labels.get(l as usize).map_or_else(|| l.to_string(), |n| format!("`{n}`"))
+    }
+
+    /// One line per label whose clips are all too short for a system's full window (motion
+    /// matching's continuation, the crossfade's `blend_frames`), naming the window it gets
+    /// instead ([`FeatureDb::continuation_of`], [`crossfade_blend`]). A label of one-frame
+    /// clips gets none: its requests fail and say why.
+    fn short_windows(&self, blend_frames: usize) -> Vec<String> {
+        let full = self.feats.continuation();
+        let mut lines = Vec::new();
+        for label in self.db.label_ids() {
+            let mut parts = Vec::new();
+            if let Some(c) = self.feats.continuation_of(label).filter(|&c| c < full) {
+                parts.push(format!("searched with a {c}-frame continuation instead of {full}"));
+            }
+            if let Some(k) = crossfade_blend(&self.db, label, blend_frames).filter(|&k| k < blend_frames) {
+                parts.push(format!("crossfaded into over {k} frames instead of {blend_frames}"));
+            }
+            if let (false, Some(r)) = (parts.is_empty(), self.db.longest_continuation(label)) {
+                lines.push(format!(
+                    "motion-match: label {} (clips of at most {} frames) is {}",
+                    self.name(label),
+                    r + 1,
+                    parts.join(" and ")
+                ));
+            }
+        }
+        lines
+    }
+
+    /// Why a request failed, the label named.
     fn why(&self, e: MatchError) -> String {
-        let name = |l: u32| self.labels.get(l as usize).map_or_else(|| l.to_string(), |n| format!("`{n}`"));
+        let name = |l: u32| self.name(l);
         match e {
             MatchError::NoSearchableFrames { label, needed } => format!(
-                "label {} has no frame to jump to: a frame needs {needed} frames of continuation in its segment, \
+                "label {} has no frame to jump to: a frame needs {needed} frame{} of continuation in its segment, \
                  and its segments are shorter",
-                name(label)
+                name(label),
+                if needed == 1 { "" } else { "s" }
             ),
             MatchError::DeadEnd { frame, label } => format!(
                 "playback reached the end of its segment at frame {frame} and no frame of label {} could take over",
@@ -228,6 +268,9 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     let weight = scales::mean_weights(&scales::read(&args.io.scales)?, &labeled.frames.controls);
     let reqs = transitions::read_requests(&args.io.requests)?;
     let corpus = Corpus::build(args, &labeled, weight)?;
+    for line in corpus.short_windows(args.blend_frames) {
+        eprintln!("{line}");
+    }
     let fps = labeled.frames.fps;
     let timeout = (args.timeout * fps).ceil() as usize;
     let after = args.blend_frames + (args.hold * fps).round() as usize;
@@ -294,10 +337,13 @@ mod tests {
     use reprise_artifact::provenance::Provenance;
     use reprise_artifact::scales::Scale;
 
-    /// Two labels, two takes of 60 frames each, two controls tracing phase-shifted sines
-    /// (`b` is `a` a quarter period on), so every pose of `a` has a near twin in `b`.
-    fn write_inputs(dir: &std::path::Path, requests: &[Request]) -> Args {
+    /// Two labels of 60 frames each, two controls tracing phase-shifted sines (`b` is `a` a
+    /// quarter period on), so every pose of `a` has a near twin in `b`. `a` is one take;
+    /// `b` is cut into clips of `b_clip` frames (the last one holds what is left).
+    fn write_inputs(dir: &std::path::Path, requests: &[Request], b_clip: usize) -> Args {
         let n = 60;
+        let segment = |r: usize| if r < n { 0 } else { 1 + (r - n) / b_clip };
+        let frame = |r: usize| if r < n { r } else { (r - n) % b_clip };
         let values: Vec<f64> = (0..2 * n)
             .flat_map(|r| {
                 let t = (r % n) as f64 * 0.2 + if r < n { 0.0 } else { 1.5 };
@@ -305,14 +351,14 @@ mod tests {
             })
             .collect();
         let lf = LabeledFrames {
-            segment_id: (0..2 * n).map(|r| (r / n) as i64).collect(),
+            segment_id: (0..2 * n).map(|r| segment(r) as i64).collect(),
             label: (0..2 * n).map(|r| if r < n { "a".into() } else { "b".into() }).collect(),
             frames: Frames {
                 fps: 24.0,
                 controls: vec!["c0".into(), "c1".into()],
-                clip: (0..2 * n).map(|r| format!("clip{}", r / n)).collect(),
-                frame: (0..2 * n).map(|r| (r % n) as i64).collect(),
-                time: (0..2 * n).map(|r| (r % n) as f64 / 24.0).collect(),
+                clip: (0..2 * n).map(|r| format!("clip{}", segment(r))).collect(),
+                frame: (0..2 * n).map(|r| frame(r) as i64).collect(),
+                time: (0..2 * n).map(|r| frame(r) as f64 / 24.0).collect(),
                 values,
             },
             masked_controls: vec![],
@@ -365,7 +411,7 @@ mod tests {
     #[test]
     fn both_systems_answer_from_the_start_frame() {
         let dir = tempfile::tempdir().unwrap();
-        let args = write_inputs(dir.path(), &[request(0, "b", 0, 10), request(1, "a", 0, 20)]);
+        let args = write_inputs(dir.path(), &[request(0, "b", 0, 10), request(1, "a", 0, 20)], 60);
         let answered = run(&args).unwrap().unwrap();
         assert_eq!(answered.len(), 2);
         let lf = LabeledFrames::read(&args.io.labeled_frames).unwrap();
@@ -394,24 +440,74 @@ mod tests {
         }
     }
 
-    /// A label whose segments are too short to jump into fails the crossfade's requests,
+    /// The corpus the stage builds from `args`' inputs.
+    fn corpus(args: &Args) -> Corpus {
+        let labeled = LabeledFrames::read(&args.io.labeled_frames).unwrap();
+        let weight = scales::mean_weights(&scales::read(&args.io.scales).unwrap(), &labeled.frames.controls);
+        Corpus::build(args, &labeled, weight).unwrap()
+    }
+
+    /// A label of one-frame clips cannot be jumped into: both systems fail its requests,
     /// saying so by the label's name (not the library's index).
     #[test]
     fn a_label_too_short_to_serve_is_named() {
         let dir = tempfile::tempdir().unwrap();
-        let mut args = write_inputs(dir.path(), &[request(0, "b", 0, 10)]);
+        let args = write_inputs(dir.path(), &[request(0, "b", 0, 10)], 1);
+        run(&args).unwrap();
+        for answers in [&args.io.mm_answers, &args.io.crossfade_answers] {
+            let a = transitions::read_answers(answers).unwrap();
+            let why = &a.get(0).unwrap().error;
+            let want = "label `b` has no frame to jump to: a frame needs 1 frame of continuation in its segment";
+            assert!(why.contains(want), "{}: {why}", a.system);
+        }
+        assert!(corpus(&args).short_windows(12).is_empty(), "no window at all, not a shorter one");
+    }
+
+    /// Regression (a studio character's label of 11-frame clips, window 12): neither system
+    /// answered a request into it. Now both reach it, motion matching searching it with a
+    /// 10-frame continuation and the crossfade blending over 10 frames, and the stage says
+    /// so once; `a` (one 60-frame take) keeps the full windows.
+    #[test]
+    fn regression_eleven_frame_clips_are_answered_with_a_ten_frame_window() {
+        let dir = tempfile::tempdir().unwrap();
+        let args = write_inputs(dir.path(), &[request(0, "b", 0, 10), request(1, "b", 0, 40)], 11);
+        run(&args).unwrap();
+        for answers in [&args.io.mm_answers, &args.io.crossfade_answers] {
+            let a = transitions::read_answers(answers).unwrap();
+            for id in [0, 1] {
+                let answer = a.get(id).unwrap();
+                assert!(answer.latency.is_some(), "{} request {id}: {}", a.system, answer.error);
+            }
+        }
+        assert_eq!(
+            corpus(&args).short_windows(12),
+            ["motion-match: label `b` (clips of at most 11 frames) is searched with a 10-frame continuation \
+              instead of 12 and crossfaded into over 10 frames instead of 12"]
+        );
+    }
+
+    /// A blend longer than every clip (61 frames on 60-frame takes) used to fail the
+    /// crossfade; it now blends over 59 frames, and the stage names both labels. Motion
+    /// matching's 12-frame continuation fits, so it is not mentioned.
+    #[test]
+    fn a_blend_longer_than_the_clips_is_shortened_and_said() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut args = write_inputs(dir.path(), &[request(0, "b", 0, 10)], 60);
         args.blend_frames = 61;
         run(&args).unwrap();
         let a = transitions::read_answers(&args.io.crossfade_answers).unwrap();
-        let why = &a.get(0).unwrap().error;
-        assert!(why.contains("label `b` has no frame to jump to: a frame needs 61 frames"), "{why}");
+        assert!(a.get(0).unwrap().latency.is_some(), "{}", a.get(0).unwrap().error);
+        let line = |l: &str| {
+            format!("motion-match: label `{l}` (clips of at most 60 frames) is crossfaded into over 59 frames instead of 61")
+        };
+        assert_eq!(corpus(&args).short_windows(61), [line("a"), line("b")]);
     }
 
     /// A request starting at a frame the labeled frames do not have is refused, naming it.
     #[test]
     fn requests_of_another_corpus_are_refused() {
         let dir = tempfile::tempdir().unwrap();
-        let args = write_inputs(dir.path(), &[request(7, "b", 5, 3)]);
+        let args = write_inputs(dir.path(), &[request(7, "b", 5, 3)], 60);
         let err = run(&args).unwrap_err().to_string();
         assert!(err.contains("request 7 starts at segment 5 frame 3") && err.contains("rerun transitions"), "{err}");
         assert!(!args.io.mm_answers.exists(), "nothing written");
@@ -421,7 +517,7 @@ mod tests {
     #[test]
     fn bad_parameters_are_refused() {
         let dir = tempfile::tempdir().unwrap();
-        let mut args = write_inputs(dir.path(), &[]);
+        let mut args = write_inputs(dir.path(), &[], 60);
         args.timeout = 0.0;
         assert!(run(&args).unwrap_err().to_string().contains("--timeout"));
     }
