@@ -57,6 +57,32 @@ fn evaluator_answering_wrong_size() {
     assert!(err.contains("answered 1 poses for 2 sent"), "{err}");
 }
 
+/// An evaluator answering NaN is refused, naming the value, the vertex and the pose.
+#[test]
+fn evaluator_answering_nan() {
+    let rig = spawn(&["--nan-after", "1"], Duration::from_secs(20)).unwrap();
+    let mut out = vec![0.0; 21];
+    let err = rig.evaluate_batch(&[0.5, 0.0, 0.0, 0.25], &mut out).unwrap_err().to_string();
+    assert!(err.contains("it answered NaN for vertex 0 (x) of a pose (c0 = 0.5, c1 = 0, c2 = 0, c3 = 0.25)"), "{err}");
+    assert!(err.contains("reprise-example-rig"), "the command is named: {err}");
+}
+
+/// An evaluator that writes text to its stdout and stays alive was reported as "no answer
+/// within 60 s"; it is refused at once, quoting what it wrote.
+#[cfg(unix)]
+#[test]
+fn evaluator_writing_text_is_named_at_once() {
+    let start = std::time::Instant::now();
+    let command: Vec<String> = ["sh", "-c", "echo loading the rig...; sleep 30"].map(String::from).to_vec();
+    let err = ExternalRig::spawn_with_timeout(&command, Path::new("."), names(2), vec![0.0; 2], Duration::from_secs(20))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(err.contains("its output is not an Arrow IPC stream: it starts with `loading `"), "{err}");
+    assert!(err.contains("logs go to stderr"), "{err}");
+    assert!(start.elapsed() < Duration::from_secs(10), "not after the time-out: {:?}", start.elapsed());
+}
+
 #[test]
 fn evaluator_that_cannot_start() {
     let err = ExternalRig::spawn(&["/nonexistent/rig".into()], Path::new("."), names(2), vec![0.0; 2])

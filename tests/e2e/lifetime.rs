@@ -135,3 +135,81 @@ fn killed_runner_leaves_no_stage_no_temp_and_a_clean_rerun() {
     assert!(pca_bytes(&p) == expected, "rerun outputs differ from a clean run's");
     p.reprise(&["run", "--to", "pca"]).ok();
 }
+
+/// A two-label curve project whose rig is the reference evaluator, made to hang on its
+/// second batch (the first is the rest pose): `scale` is then busy with a busy evaluator.
+fn project_with_a_hanging_evaluator() -> Project {
+    let p = Project::empty();
+    let mut csv = String::from("clip,frame,k0,k1\n");
+    for f in 0..40 {
+        let t = f64::from(f) / 7.0;
+        csv.push_str(&format!("a,{f},{},{}\nb,{f},{},{}\n", t.sin(), t.cos(), t.cos(), 2.0 * t.sin()));
+    }
+    p.write("curves.csv", &csv);
+    p.write("labels.toml", "[[rule]]\npattern = \"a\"\nlabel = \"a\"\n[[rule]]\npattern = \"b\"\nlabel = \"b\"\n");
+    let rig = env!("CARGO_BIN_EXE_reprise-example-rig");
+    p.write(
+        "pipeline.toml",
+        &format!(
+            r#"[pipeline]
+name = "hang"
+[stage.ingest]
+bin = "reprise-ingest"
+inputs.curves = "curves.csv"
+outputs.frames = "artifacts/frames.parquet"
+outputs.controls = "artifacts/controls.parquet"
+outputs.clips = "artifacts/clips.parquet"
+[stage.ingest.params]
+external_rig = ["{rig}", "--vertices", "5", "--hang-after", "1"]
+[stage.label]
+bin = "reprise-label"
+inputs.frames = "artifacts/frames.parquet"
+inputs.labels = "labels.toml"
+outputs.segments = "artifacts/segments.parquet"
+outputs.labeled_frames = "artifacts/labeled_frames.parquet"
+[stage.scale]
+bin = "reprise-scale"
+inputs.labeled_frames = "artifacts/labeled_frames.parquet"
+inputs.controls = "artifacts/controls.parquet"
+outputs.scales = "artifacts/scales.parquet"
+"#
+        ),
+    );
+    p
+}
+
+/// Waits until a rig evaluator (`reprise-example-rig`, whose name the kernel cuts to 15
+/// characters) and `reprise-scale` both run in the project; returns the stage's pid.
+fn wait_for_busy_evaluator(p: &Project, runner: &mut Child) -> u32 {
+    let deadline = Instant::now() + Duration::from_secs(60);
+    loop {
+        let running = stages_running_in(p);
+        let scale = running.iter().find(|(_, n)| n == "reprise-scale").map(|(pid, _)| *pid);
+        if let (Some(scale), true) = (scale, running.iter().any(|(_, n)| n == "reprise-example")) {
+            std::thread::sleep(Duration::from_millis(300));
+            return scale;
+        }
+        assert!(runner.try_wait().unwrap().is_none(), "the runner ended before scale's evaluator was busy");
+        assert!(Instant::now() < deadline, "no busy evaluator: {running:?}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// `kill -9` of the runner, and of the stage, while a rig evaluator is busy: no stage and
+/// no evaluator is left running (they were left with parent 1).
+#[test]
+fn a_busy_evaluator_dies_with_its_stage_and_runner() {
+    let p = project_with_a_hanging_evaluator();
+    let mut runner = spawn(&p, &["run", "--to", "scale"]);
+    wait_for_busy_evaluator(&p, &mut runner);
+    signal(runner.id(), "-KILL");
+    runner.wait().unwrap();
+    assert_no_stage_survives(&p, "after kill -9 of the runner");
+
+    let mut runner = spawn(&p, &["run", "--to", "scale"]);
+    let stage = wait_for_busy_evaluator(&p, &mut runner);
+    signal(stage, "-KILL");
+    let out = runner.wait_with_output().unwrap();
+    assert!(!out.status.success(), "a killed stage fails the run");
+    assert_no_stage_survives(&p, "after kill -9 of the stage");
+}

@@ -80,4 +80,22 @@ fn robot_expressive_through_gplvm() {
     let stale = RigRef::Gltf { path: path.clone(), blake3: "0".repeat(64) };
     let err = reprise_rig::open(&stale, std::path::Path::new("."), &[], &[]).err().unwrap().to_string();
     assert!(err.contains("changed since ingest"), "{err}");
+
+    // A lost lock costs a rerun, never a refusal: the report and the exported character
+    // say which stage of which pipeline wrote them (they were refused as "no stage of
+    // this pipeline wrote").
+    std::fs::remove_file(p.path("artifacts/robot-expressive/reprise.lock")).unwrap();
+    let out = p.reprise(&["run"]).ok();
+    assert!(out.contains("running evaluate") && out.contains("running export-gltf"), "{out}");
+    assert!(p.read("reports/robot-expressive/report.md").contains("<!-- reprise:stage=evaluate;pipeline=robot-expressive -->"));
+
+    // A second pipeline writing into the same artifacts directory is refused, naming both;
+    // `--adopt-artifacts` takes the directory over.
+    p.write("other.toml", &toml.replace("name = \"robot-expressive\"", "name = \"robot-two\""));
+    let err = p.reprise(&["run", "-p", "other.toml", "--to", "ingest"]).fails(2);
+    assert!(err.contains("belongs to pipeline `robot-expressive`") && err.contains("running `robot-two` there"), "{err}");
+    let out = p.reprise(&["run", "-p", "other.toml", "--to", "ingest", "--adopt-artifacts"]).ok();
+    assert!(out.contains("adopting"), "{out}");
+    let err = p.reprise(&["run", "--to", "ingest"]).fails(2);
+    assert!(err.contains("belongs to pipeline `robot-two`"), "{err}");
 }

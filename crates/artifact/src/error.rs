@@ -42,7 +42,7 @@ pub enum ArtifactError {
     #[error("{path}: metadata key `{key}`: {message}")]
     Metadata { path: PathBuf, key: String, message: String },
     /// The decoded content does not match the checksum written with it.
-    #[error("{path}: the file is corrupt: its data does not match the checksum written with it (a damaged disk, copy or download); rerun the stage that produced it")]
+    #[error("{path}: its data does not match the checksum reprise wrote with it: it was changed after it was written (rewritten by another tool — columns reordered, values edited — or damaged on disk, in a copy or a download); rerun the stage that produced it")]
     Corrupt { path: PathBuf },
     /// Two artifacts given together do not belong together (made by different runs, or
     /// one indexes rows the other does not have); the message says how, and what to rerun.
@@ -59,7 +59,34 @@ impl ArtifactError {
         Self::Io { path: path.into(), source }
     }
 
-    pub(crate) fn parquet(path: impl Into<PathBuf>, e: impl std::fmt::Display) -> Self {
+    pub(crate) fn parquet(path: impl Into<PathBuf>, e: impl std::error::Error + 'static) -> Self {
+        // An I/O error under the Parquet layer (a full disk while a row group is flushed)
+        // is the machine's, not the file's: keep it as I/O so its exit code says so.
+        let mut source: Option<&(dyn std::error::Error + 'static)> = Some(&e);
+        while let Some(s) = source {
+            if let Some(io) = s.downcast_ref::<std::io::Error>() {
+                return Self::Io { path: path.into(), source: std::io::Error::new(io.kind(), e.to_string()) };
+            }
+            source = s.source();
+        }
         Self::Parquet { path: path.into(), message: e.to_string() }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A full disk under the Parquet writer stays an I/O error of its kind (the stage then
+    /// exits as an environment error, 6, not as bad input, 3); a format error stays one.
+    #[test]
+    fn io_errors_under_parquet_keep_their_kind() {
+        let full = parquet::errors::ParquetError::External(Box::new(std::io::Error::from(std::io::ErrorKind::StorageFull)));
+        match ArtifactError::parquet("t.parquet", full) {
+            ArtifactError::Io { source, .. } => assert_eq!(source.kind(), std::io::ErrorKind::StorageFull),
+            other => panic!("{other}"),
+        }
+        let format = parquet::errors::ParquetError::General("bad magic".into());
+        assert!(matches!(ArtifactError::parquet("t.parquet", format), ArtifactError::Parquet { .. }));
     }
 }

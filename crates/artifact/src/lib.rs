@@ -23,6 +23,7 @@
 pub mod contain;
 pub mod content;
 pub mod error;
+pub mod input;
 pub mod partition;
 pub mod provenance;
 pub mod stream;

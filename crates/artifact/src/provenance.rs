@@ -25,6 +25,27 @@ pub const KEY_PARAMS_HASH: &str = "reprise.params_hash";
 pub const KEY_CONTENT: &str = "reprise.content_blake3_columns";
 /// Metadata key: JSON object `name -> {path, blake3}` of the stage's input files.
 pub const KEY_INPUTS: &str = "reprise.inputs";
+/// Metadata key: the pipeline (its `[pipeline] name`) whose run wrote the artifact; absent
+/// for a stage run by hand. The runner knows its own outputs by it when its lock is lost,
+/// and refuses to overwrite another pipeline's.
+pub const KEY_PIPELINE: &str = "reprise.pipeline";
+/// Environment variable: the pipeline a stage runs for (set by the runner).
+pub const PIPELINE_ENV: &str = "REPRISE_PIPELINE";
+
+/// The marker a non-Parquet output (a report, a glTF file) carries so the runner can tell
+/// whose it is: `reprise:stage=<stage>;pipeline=<name>` (`pipeline` omitted when run by
+/// hand).
+pub fn output_marker(stage: &str, pipeline: Option<&str>) -> String {
+    match pipeline {
+        Some(p) => format!("reprise:stage={stage};pipeline={p}"),
+        None => format!("reprise:stage={stage}"),
+    }
+}
+
+/// The pipeline this process runs for ([`PIPELINE_ENV`]), if a runner started it.
+pub fn pipeline_from_env() -> Option<String> {
+    std::env::var(PIPELINE_ENV).ok().filter(|p| !p.is_empty())
+}
 
 /// One input file of a stage, identified by its content.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -46,12 +67,15 @@ pub struct Provenance {
     pub params: serde_json::Value,
     /// Input files by role name.
     pub inputs: BTreeMap<String, InputRef>,
+    /// The pipeline whose run wrote it ([`KEY_PIPELINE`]).
+    #[serde(default)]
+    pub pipeline: Option<String>,
 }
 
 impl Provenance {
     /// A provenance record with no inputs yet.
     pub fn new(stage: &str, stage_version: &str, params: serde_json::Value) -> Self {
-        Self { stage: stage.into(), stage_version: stage_version.into(), params, inputs: BTreeMap::new() }
+        Self { stage: stage.into(), stage_version: stage_version.into(), params, inputs: BTreeMap::new(), pipeline: None }
     }
 
     /// Records an input file by hashing its content now.
@@ -69,13 +93,15 @@ impl Provenance {
     /// The `reprise.*` key-value pairs (without kind and schema version).
     pub fn to_metadata(&self) -> Vec<(String, String)> {
         let params = self.params_json();
-        vec![
+        let mut kv = vec![
             (KEY_STAGE.into(), self.stage.clone()),
             (KEY_STAGE_VERSION.into(), self.stage_version.clone()),
             (KEY_PARAMS_HASH.into(), blake3::hash(params.as_bytes()).to_hex().to_string()),
             (KEY_PARAMS.into(), params),
             (KEY_INPUTS.into(), serde_json::to_string(&self.inputs).expect("string map serialises")),
-        ]
+        ];
+        kv.extend(self.pipeline.iter().map(|p| (KEY_PIPELINE.to_string(), p.clone())));
+        kv
     }
 
     /// Reads provenance back from key-value metadata.
@@ -97,6 +123,7 @@ impl Provenance {
             stage_version: get(KEY_STAGE_VERSION)?.clone(),
             params: serde_json::from_str(get(KEY_PARAMS)?).map_err(|e| bad(KEY_PARAMS, e))?,
             inputs: serde_json::from_str(get(KEY_INPUTS)?).map_err(|e| bad(KEY_INPUTS, e))?,
+            pipeline: meta.get(KEY_PIPELINE).cloned(),
         })
     }
 }
@@ -158,7 +185,7 @@ pub fn canonical_json(value: &serde_json::Value) -> String {
 /// blake3 of a file's bytes, hex.
 pub fn hash_file(path: &Path) -> Result<String> {
     let mut hasher = blake3::Hasher::new();
-    let file = std::fs::File::open(crate::table::current_location(path)).map_err(|e| ArtifactError::io(path, e))?;
+    let file = crate::input::open_regular(&crate::table::current_location(path))?;
     hasher.update_reader(file).map_err(|e| ArtifactError::io(path, e))?;
     Ok(hasher.finalize().to_hex().to_string())
 }

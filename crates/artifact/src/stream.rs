@@ -35,6 +35,8 @@ pub struct TableWriter {
     schema: SchemaRef,
     writer: Option<ArrowWriter<File>>,
     hash: ContentHash,
+    /// Rows written so far.
+    rows: usize,
 }
 
 impl TableWriter {
@@ -47,7 +49,7 @@ impl TableWriter {
         provenance: &Provenance,
         extra: &[(String, String)],
     ) -> Result<Self> {
-        let batch = first.into_batch(path)?;
+        let batch = first.into_batch(path, 0)?;
         let kv = [(KEY_KIND.to_string(), kind.name.to_string()), (KEY_SCHEMA_VERSION.into(), kind.version.to_string())]
             .into_iter()
             .chain(provenance.to_metadata())
@@ -78,14 +80,14 @@ impl TableWriter {
         let tmp = table::begin_atomic(path)?;
         let file = File::create(&tmp).map_err(|e| ArtifactError::io(&tmp, e))?;
         let hash = ContentHash::new(&schema);
-        let mut w = Self { path: path.into(), tmp, schema: schema.clone(), writer: None, hash };
+        let mut w = Self { path: path.into(), tmp, schema: schema.clone(), writer: None, hash, rows: 0 };
         w.writer = Some(ArrowWriter::try_new(file, schema, Some(props)).map_err(|e| ArtifactError::parquet(path, e))?);
         Ok(w)
     }
 
     /// Appends rows; their columns must be the first rows' (names, types, order).
     pub fn write(&mut self, rows: Columns) -> Result<()> {
-        let batch = rows.into_batch(&self.path)?;
+        let batch = rows.into_batch(&self.path, self.rows)?;
         self.write_batch(&batch)
     }
 
@@ -97,6 +99,7 @@ impl TableWriter {
             });
         }
         self.hash.update(batch);
+        self.rows += batch.num_rows();
         let writer = self.writer.as_mut().expect("a writer is open until finish");
         writer.write(batch).map_err(|e| ArtifactError::parquet(&self.path, e))
     }
@@ -150,7 +153,7 @@ impl TableStream {
     }
 
     fn open_unguarded(path: &Path, rows: usize) -> Result<Self> {
-        let file = File::open(table::current_location(path)).map_err(|e| ArtifactError::io(path, e))?;
+        let file = crate::input::open_regular(&table::current_location(path))?;
         let file_len = file.metadata().map_err(|e| ArtifactError::io(path, e))?.len();
         let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| ArtifactError::parquet(path, e))?;
         table::check_chunk_ranges(builder.metadata(), file_len)

@@ -26,6 +26,9 @@ pub struct Kind {
 pub struct Columns {
     fields: Vec<Field>,
     arrays: Vec<ArrayRef>,
+    /// Per column: whether its values must be finite (Float64 columns but those of
+    /// [`Columns::f64_any`]).
+    finite: Vec<bool>,
 }
 
 impl Columns {
@@ -33,39 +36,62 @@ impl Columns {
     pub fn new() -> Self {
         Self::default()
     }
-    /// Appends a non-null Float64 column.
+    /// Appends a non-null Float64 column whose every value must be finite: a NaN or an
+    /// infinity is refused when the table is written, naming the column and row, so that
+    /// no artifact (and no cache entry) ever holds one.
     pub fn f64(mut self, name: &str, values: Vec<f64>) -> Self {
-        self.push(name, DataType::Float64, Arc::new(Float64Array::from(values)));
+        self.push(name, DataType::Float64, Arc::new(Float64Array::from(values)), true);
+        self
+    }
+    /// Appends a non-null Float64 column whose values may be infinite or NaN, for columns
+    /// whose meaning includes them (read with [`Table::f64_any`]).
+    pub fn f64_any(mut self, name: &str, values: Vec<f64>) -> Self {
+        self.push(name, DataType::Float64, Arc::new(Float64Array::from(values)), false);
         self
     }
     /// Appends a non-null Int64 column.
     pub fn i64(mut self, name: &str, values: Vec<i64>) -> Self {
-        self.push(name, DataType::Int64, Arc::new(Int64Array::from(values)));
+        self.push(name, DataType::Int64, Arc::new(Int64Array::from(values)), false);
         self
     }
     /// Appends a non-null Utf8 column.
     pub fn str<S: AsRef<str>>(mut self, name: &str, values: &[S]) -> Self {
         let array = StringArray::from_iter_values(values.iter().map(AsRef::as_ref));
-        self.push(name, DataType::Utf8, Arc::new(array));
+        self.push(name, DataType::Utf8, Arc::new(array), false);
         self
     }
     /// Appends a non-null Boolean column.
     pub fn bool(mut self, name: &str, values: Vec<bool>) -> Self {
-        self.push(name, DataType::Boolean, Arc::new(BooleanArray::from(values)));
+        self.push(name, DataType::Boolean, Arc::new(BooleanArray::from(values)), false);
         self
     }
-    /// Appends a nullable Float64 column (None = null).
+    /// Appends a nullable Float64 column (None = null; the values present must be finite).
     pub fn f64_opt(mut self, name: &str, values: Vec<Option<f64>>) -> Self {
         self.fields.push(Field::new(name, DataType::Float64, true));
         self.arrays.push(Arc::new(Float64Array::from(values)));
+        self.finite.push(true);
         self
     }
-    fn push(&mut self, name: &str, dtype: DataType, array: ArrayRef) {
+    fn push(&mut self, name: &str, dtype: DataType, array: ArrayRef, finite: bool) {
         self.fields.push(Field::new(name, dtype, false));
         self.arrays.push(array);
+        self.finite.push(finite);
     }
-    /// The columns as one Arrow batch (an error, naming `path`, if their lengths differ).
-    pub(crate) fn into_batch(self, path: &Path) -> Result<RecordBatch> {
+    /// The first value that must be finite and is not, as (column, row, value).
+    fn first_non_finite(&self) -> Option<(&str, usize, f64)> {
+        self.fields.iter().zip(&self.arrays).zip(&self.finite).filter(|(_, f)| **f).find_map(|((field, array), _)| {
+            let a = array.as_any().downcast_ref::<Float64Array>()?;
+            let row = (0..a.len()).find(|&i| !a.is_null(i) && !a.value(i).is_finite())?;
+            Some((field.name().as_str(), row, a.value(row)))
+        })
+    }
+    /// The columns as one Arrow batch, whose first row is row `first_row` of the table at
+    /// `path`: an error naming `path` if their lengths differ, or naming the column and row
+    /// of a value that must be finite and is not.
+    pub(crate) fn into_batch(self, path: &Path, first_row: usize) -> Result<RecordBatch> {
+        if let Some((column, row, value)) = self.first_non_finite() {
+            return Err(ArtifactError::NotFinite { path: path.into(), column: column.into(), row: first_row + row, value });
+        }
         RecordBatch::try_new(Arc::new(Schema::new(self.fields)), self.arrays)
             .map_err(|e| ArtifactError::parquet(path, e))
     }
@@ -192,7 +218,7 @@ pub(crate) fn current_location(path: &Path) -> PathBuf {
 /// The key-value metadata of a Parquet file, read from its footer only.
 pub fn metadata_of(path: &Path) -> Result<BTreeMap<String, String>> {
     use parquet::file::reader::{FileReader, SerializedFileReader};
-    let file = File::open(current_location(path)).map_err(|e| ArtifactError::io(path, e))?;
+    let file = crate::input::open_regular(&current_location(path))?;
     let reader = SerializedFileReader::new(file).map_err(|e| ArtifactError::parquet(path, e))?;
     let kv = reader.metadata().file_metadata().key_value_metadata().cloned().unwrap_or_default();
     Ok(kv.into_iter().map(|e| (e.key, e.value.unwrap_or_default())).collect())
@@ -450,4 +476,31 @@ pub fn check_chunk_ranges(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A NaN or an infinity never reaches an artifact: the write fails naming the column
+    /// and row, and leaves nothing at the path; a column declared to hold them
+    /// ([`Columns::f64_any`]) and a nullable column's nulls are written.
+    #[test]
+    fn non_finite_values_are_never_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("scales.parquet");
+        let kind = Kind { name: "t", version: 1 };
+        let pv = Provenance::new("scale", "0", serde_json::json!({}));
+        for (column, bad) in [("weight", f64::NAN), ("std", f64::INFINITY)] {
+            let cols = Columns::new().str("label", &["a", "b"]).f64(column, vec![1.0, bad]);
+            let e = write(&path, kind, cols, &pv, &[]).unwrap_err().to_string();
+            assert!(e.contains(&format!("scales.parquet: column `{column}`, row 1: value {bad} is not finite")), "{e}");
+            assert!(!path.exists());
+        }
+        let e = write(&path, kind, Columns::new().f64_opt("m", vec![None, Some(f64::NAN)]), &pv, &[]).unwrap_err();
+        assert!(e.to_string().contains("column `m`, row 1"), "{e}");
+        let ok = Columns::new().f64_any("ratio", vec![f64::INFINITY, 1.0]).f64_opt("m", vec![None, Some(2.0)]);
+        write(&path, kind, ok, &pv, &[]).unwrap();
+        assert!(path.exists());
+    }
 }

@@ -56,7 +56,7 @@ fn a_flipped_bit_never_reads_as_other_data() {
         }
         found.unwrap()
     };
-    assert!(message.contains("t.parquet: the file is corrupt"), "{message}");
+    assert!(message.contains("t.parquet: its data does not match the checksum reprise wrote"), "{message}");
 }
 
 /// After `defer_commits`, outputs appear only at `commit_pending`, all together; reads

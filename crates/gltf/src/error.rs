@@ -14,6 +14,10 @@ pub enum GltfError {
         source: std::io::Error,
     },
 
+    /// The file (or a buffer it names) is not a regular file, or is past the size bound.
+    #[error(transparent)]
+    Input(#[from] reprise_artifact::input::InputError),
+
     /// The file is not parseable glTF 2.0 / GLB, or fails the `gltf` crate's validation.
     #[error("{}: not a valid glTF 2.0 file: {reason}", path.display())]
     Parse { path: PathBuf, reason: String },

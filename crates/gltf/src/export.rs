@@ -116,19 +116,18 @@ fn push_accessor(json: &mut Value, bin: &mut Vec<u8>, data: &[f32], kind: &str, 
 
 /// Writes a copy of `src` to `dst` with `clips` added as animations (an existing
 /// animation of the same name is an error).
-pub fn export(src: &Path, dst: &Path, clips: &[ExportClip]) -> Result<(), GltfError> {
-    GltfError::contain(src, || export_into(src, dst, clips))
+///
+/// `marker` goes to `asset.extras.reprise`: what wrote the file (see
+/// `reprise_artifact::provenance::output_marker`), so a rerun knows it as its own.
+pub fn export(src: &Path, dst: &Path, clips: &[ExportClip], marker: &str) -> Result<(), GltfError> {
+    GltfError::contain(src, || export_into(src, dst, clips, marker))
 }
 
-fn export_into(src: &Path, dst: &Path, clips: &[ExportClip]) -> Result<(), GltfError> {
+fn export_into(src: &Path, dst: &Path, clips: &[ExportClip], marker: &str) -> Result<(), GltfError> {
     let l = load(src)?;
     let graph = SceneGraph::from_loaded(&l)?;
     let lay = layout(&l, &graph);
-    let bytes = std::fs::read(src).map_err(|source| GltfError::Io {
-        path: src.to_path_buf(),
-        what: "the file".into(),
-        source,
-    })?;
+    let bytes = reprise_artifact::input::read(src, crate::load::MAX_FILE_BYTES)?;
     let (mut json, mut bin) = split_glb(src, &bytes)?;
     for key in ["bufferViews", "accessors", "animations"] {
         if json.get(key).is_none() {
@@ -203,6 +202,9 @@ fn export_into(src: &Path, dst: &Path, clips: &[ExportClip]) -> Result<(), GltfE
         bin.push(0);
     }
     json["buffers"][0]["byteLength"] = json!(bin.len());
+    if json["asset"].get("extras").is_none_or(serde_json::Value::is_object) {
+        json["asset"]["extras"]["reprise"] = json!(marker);
+    }
     let out = join_glb(&json, &bin);
     reprise_artifact::table::write_atomic(dst, |file| {
         use std::io::Write as _;

@@ -56,12 +56,12 @@ fn truncated_glb(bytes: &[u8]) -> Option<String> {
     })
 }
 
+/// The largest glTF file, or external buffer, read: 1 GiB (a character with a film's
+/// animation is tens of MB).
+pub const MAX_FILE_BYTES: u64 = 1 << 30;
+
 pub(crate) fn load(path: &Path) -> Result<Loaded, GltfError> {
-    let bytes = std::fs::read(path).map_err(|source| GltfError::Io {
-        path: path.to_path_buf(),
-        what: "the file".into(),
-        source,
-    })?;
+    let bytes = reprise_artifact::input::read(path, MAX_FILE_BYTES)?;
     let parse_err = |e: gltf::Error| GltfError::Parse { path: path.to_path_buf(), reason: e.to_string() };
     if let Some(reason) = truncated_glb(&bytes) {
         return Err(GltfError::Parse { path: path.to_path_buf(), reason });
@@ -176,11 +176,13 @@ fn load_buffer(path: &Path, b: &gltf::Buffer<'_>, blob: Option<&[u8]>) -> Result
                 return Err(err(format!("URI '{uri}' is not a local file (nothing is downloaded)")));
             }
             let file = path.parent().unwrap_or(Path::new(".")).join(uri);
-            std::fs::read(&file).map_err(|source| GltfError::Io {
-                path: path.to_path_buf(),
-                what: format!("buffer {} ({})", b.index(), file.display()),
-                source,
-            })?
+            // A buffer is a regular file at least as long as it declares (checked before
+            // anything is read: a `/dev/zero` or a FIFO would never end).
+            let len = reprise_artifact::input::check_file(&file, MAX_FILE_BYTES).map_err(|e| err(e.to_string()))?;
+            if len < b.length() as u64 {
+                return Err(err(format!("declares {} bytes but {} has {len}", b.length(), file.display())));
+            }
+            reprise_artifact::input::read(&file, MAX_FILE_BYTES).map_err(|e| err(e.to_string()))?
         }
     };
     if data.len() < b.length() {

@@ -29,7 +29,7 @@ fn exported_clips_reingest_to_the_same_curves() {
     ];
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("robot_with_clips.glb");
-    export(&path, &out, &clips).unwrap();
+    export(&path, &out, &clips, "reprise:stage=test").unwrap();
     let after = ingest(&out, 24.0).unwrap();
     assert_eq!(after.clips.len(), before.clips.len() + 2);
     assert_eq!(after.controls.iter().map(|c| &c.name).collect::<Vec<_>>(), names.iter().collect::<Vec<_>>());
@@ -44,7 +44,7 @@ fn exported_clips_reingest_to_the_same_curves() {
     assert!(worst_rest < 1e-5, "{worst_rest}");
     let orig = after.clip("Wave").unwrap();
     assert!(orig.values.iter().zip(&wave.values).all(|(a, b)| (a - b).abs() < 1e-12));
-    let err = export(&out, &dir.path().join("again.glb"), &clips[..1]).unwrap_err().to_string();
+    let err = export(&out, &dir.path().join("again.glb"), &clips[..1], "reprise:stage=test").unwrap_err().to_string();
     assert!(err.contains("already has an animation named `reprise_wave`"), "{err}");
     assert!(!dir.path().join("again.glb").exists());
 }

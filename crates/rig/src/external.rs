@@ -11,6 +11,8 @@
 //!   own stream and exits 0. Anything on stderr is kept and shown in errors.
 //! - An evaluator that exits early, answers the wrong shape, or is silent for longer
 //!   than the time-out (default 60 s per batch) is an error; a silent one is killed.
+//! - The evaluator dies with the stage that started it, however the stage ends
+//!   ([`spawn_tied`]): a `kill -9` of the stage or of its runner leaves no evaluator.
 
 use std::io::{BufWriter, Read, Write};
 use std::path::Path;
@@ -25,6 +27,91 @@ use arrow::ipc::reader::StreamReader;
 use arrow::ipc::writer::StreamWriter;
 
 use crate::{Rig, RigError};
+
+/// Starts `command` so that the child dies with this process. On Linux the child asks,
+/// between fork and exec, for SIGKILL when its parent dies (`PR_SET_PDEATHSIG`), and
+/// refuses to start if the parent is already gone. The kernel sends that signal when the
+/// *thread* that forked the child ends, so every child is forked by one thread that lives
+/// as long as the process. Elsewhere the child is spawned plainly (it then ends when it
+/// reads the end of its input).
+pub fn spawn_tied(command: Command) -> std::io::Result<Child> {
+    type Job = (Command, std::sync::mpsc::Sender<std::io::Result<Child>>);
+    static SPAWNER: std::sync::OnceLock<Option<Mutex<std::sync::mpsc::Sender<Job>>>> = std::sync::OnceLock::new();
+    let mut command = command;
+    tie_to_parent(&mut command);
+    let spawner = SPAWNER.get_or_init(|| {
+        let (tx, rx) = std::sync::mpsc::channel::<Job>();
+        let thread = std::thread::Builder::new().name("child-spawner".into()).spawn(move || {
+            for (mut command, reply) in rx {
+                let _ = reply.send(command.spawn());
+            }
+        });
+        thread.ok().map(|_| Mutex::new(tx))
+    });
+    let Some(spawner) = spawner else { return command.spawn() };
+    let (reply, answer) = std::sync::mpsc::channel();
+    let sent = spawner.lock().map_err(|_| std::io::Error::other("the spawner's lock is poisoned"))?.send((command, reply));
+    sent.map_err(|_| std::io::Error::other("the spawner thread is gone"))?;
+    answer.recv().map_err(|_| std::io::Error::other("the spawner thread is gone"))?
+}
+
+/// Arms the parent-death signal in the child (see [`spawn_tied`]).
+#[cfg(target_os = "linux")]
+#[allow(unsafe_code)]
+fn tie_to_parent(command: &mut Command) {
+    use std::os::unix::process::CommandExt;
+    let parent = std::process::id();
+    // SAFETY: the closure runs in the forked child before exec, where only
+    // async-signal-safe calls are allowed: it makes two system calls (prctl, getppid) and
+    // builds its error from an errno without allocating.
+    unsafe {
+        command.pre_exec(move || {
+            rustix::process::set_parent_process_death_signal(Some(rustix::process::Signal::KILL))?;
+            match rustix::process::getppid() {
+                Some(p) if p.as_raw_nonzero().get() as u32 == parent => Ok(()),
+                _ => Err(rustix::io::Errno::SRCH.into()),
+            }
+        });
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn tie_to_parent(_: &mut Command) {}
+
+/// How a reply that is not an Arrow IPC stream is named.
+const NOT_IPC: &str = "its output is not an Arrow IPC stream";
+
+/// The evaluator's output, its first message's prefix checked: an IPC stream message starts
+/// with the continuation marker `FF FF FF FF` (or, in the legacy format, directly) and the
+/// length of its metadata. Anything else — text, a log line — is refused at once, quoting
+/// its first bytes, instead of being taken as a length of gigabytes and waited for until
+/// the time-out.
+fn ipc_start(mut out: impl Read) -> Result<impl Read, String> {
+    const MAX_METADATA: u32 = 16 << 20;
+    let mut head = [0u8; 8];
+    let mut got = 0;
+    while got < head.len() {
+        match out.read(&mut head[got..]) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(format!("cannot read its output: {e}")),
+        }
+    }
+    let word = |i: usize| u32::from_le_bytes(head[i..i + 4].try_into().expect("4 bytes"));
+    let ok = got == 0
+        || (got == 8 && word(0) == u32::MAX && word(4) <= MAX_METADATA)
+        || (got >= 4 && word(0) <= MAX_METADATA);
+    if !ok {
+        let shown: String = head[..got].iter().map(|&b| if b.is_ascii_graphic() || b == b' ' { b as char } else { '.' }).collect();
+        return Err(format!(
+            "{NOT_IPC}: it starts with `{shown}` (bytes {:02x?}); an evaluator writes only Arrow IPC to its stdout \
+             (logs go to stderr)",
+            &head[..got]
+        ));
+    }
+    Ok(std::io::Cursor::new(head[..got].to_vec()).chain(out))
+}
 
 /// Column of the response stream.
 pub const POSITIONS: &str = "positions";
@@ -74,14 +161,9 @@ impl ExternalRig {
         let line = command.join(" ");
         let fail = |message: String| RigError::External { command: line.clone(), message };
         let (program, args) = command.split_first().ok_or_else(|| fail("empty command".into()))?;
-        let mut child = Command::new(program)
-            .args(args)
-            .current_dir(base)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .map_err(|e| fail(format!("cannot start: {e}")))?;
+        let mut command = Command::new(program);
+        command.args(args).current_dir(base).stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped());
+        let mut child = spawn_tied(command).map_err(|e| fail(format!("cannot start: {e}")))?;
         let stderr = Arc::new(Mutex::new(String::new()));
         let mut err_pipe = child.stderr.take().expect("stderr is piped");
         let sink = stderr.clone();
@@ -105,9 +187,12 @@ impl ExternalRig {
         });
         let stdout = child.stdout.take().expect("stdout is piped");
         let (tx, replies) = std::sync::mpsc::channel();
-        std::thread::spawn(move || match StreamReader::try_new(stdout, None) {
+        std::thread::spawn(move || match ipc_start(stdout).and_then(|s| StreamReader::try_new(s, None).map_err(|e| e.to_string())) {
+            Err(e) if e.starts_with(NOT_IPC) => {
+                let _ = tx.send(Err(e));
+            }
             Err(e) => {
-                let _ = tx.send(Err(format!("its output is not an Arrow IPC stream: {e}")));
+                let _ = tx.send(Err(format!("{NOT_IPC}: {e}")));
             }
             Ok(reader) => {
                 for batch in reader {
@@ -185,7 +270,33 @@ impl ExternalRig {
             }
         };
         drop(session);
-        self.positions(&reply, rows)
+        let out = self.positions(&reply, rows)?;
+        self.check_finite(&out, poses)?;
+        Ok(out)
+    }
+
+    /// Refuses an answer holding NaN or an infinity, naming the pose (its first controls)
+    /// and the vertex: a non-finite mesh would become non-finite scales downstream.
+    fn check_finite(&self, out: &[f64], poses: &[f64]) -> Result<(), RigError> {
+        let Some(i) = out.iter().position(|v| !v.is_finite()) else { return Ok(()) };
+        let (n, width) = (self.names.len(), out.len() / (poses.len() / self.names.len()).max(1));
+        let pose = i / width.max(1);
+        let shown: Vec<String> = self
+            .names
+            .iter()
+            .zip(&poses[pose * n..(pose + 1) * n])
+            .take(6)
+            .map(|(name, v)| format!("{name} = {v}"))
+            .collect();
+        let more = if n > 6 { format!(", … ({n} controls)") } else { String::new() };
+        Err(self.error(format!(
+            "it answered {} for vertex {} ({}) of a pose ({}{more}); an evaluator must give finite positions \
+             for every pose it is sent",
+            out[i],
+            (i % width.max(1)) / 3,
+            ["x", "y", "z"][i % 3],
+            shown.join(", ")
+        )))
     }
 
     fn positions(&self, reply: &RecordBatch, rows: usize) -> Result<Vec<f64>, RigError> {

@@ -123,12 +123,14 @@ pub struct Call<'a> {
     pub log: Option<&'a Path>,
     /// Ask the stage for plain progress lines even on a terminal (several stages share it).
     pub plain_progress: bool,
+    /// The pipeline the stage runs for (recorded in what it writes; empty: none).
+    pub pipeline: &'a str,
 }
 
 /// Runs the stage binary `bin` in `dir` as `call` says and waits for it. A signal
 /// recorded by `interrupt` stops the stage (see the module docs).
 pub fn invoke(stage: &Stage, bin: &Path, dir: &Path, call: Call<'_>, interrupt: &Interrupt) -> Result<Outcome> {
-    let Call { check, stats, log, plain_progress } = call;
+    let Call { check, stats, log, plain_progress, pipeline } = call;
     let mut command = Command::new(bin);
     command.args(stage_args(stage)).current_dir(dir).stdin(Stdio::null());
     if let Some(log) = log {
@@ -137,6 +139,9 @@ pub fn invoke(stage: &Stage, bin: &Path, dir: &Path, call: Call<'_>, interrupt: 
         command.stdout(file).stderr(copy);
     }
     command.env(reprise_stagekit::lifetime::RUNNER_PID_ENV, std::process::id().to_string());
+    if !pipeline.is_empty() {
+        command.env(reprise_artifact::provenance::PIPELINE_ENV, pipeline);
+    }
     #[cfg(unix)]
     {
         use std::os::unix::process::CommandExt;
@@ -178,11 +183,14 @@ fn spawn(command: &mut Command) -> io::Result<Child> {
 }
 
 /// Waits for the child, polling `interrupt`; on a signal, stops the child's process group
-/// and returns `Err(signal)` once it is gone.
+/// and returns `Err(signal)` once it is gone. When the child ends by itself (or is
+/// killed by someone else), whatever it left running in its group — a rig evaluator — is
+/// killed before the child is reaped.
 fn wait(child: &mut Child, interrupt: &Interrupt) -> io::Result<Result<ExitStatus, i32>> {
     loop {
-        if let Some(status) = child.try_wait()? {
-            return Ok(Ok(status));
+        if ended(child)? {
+            kill_group(child);
+            return child.wait().map(Ok);
         }
         if let Some(signal) = interrupt.received() {
             stop_group(child)?;
@@ -192,26 +200,51 @@ fn wait(child: &mut Child, interrupt: &Interrupt) -> io::Result<Result<ExitStatu
     }
 }
 
-/// SIGTERM to the child's process group, SIGKILL after [`GRACE`], then reaps the child.
+/// Whether the child has ended, without reaping it: until it is reaped its pid — and so
+/// its process group's id — cannot be reused, so [`kill_group`] reaches only its group.
+#[cfg(unix)]
+fn ended(child: &mut Child) -> io::Result<bool> {
+    use rustix::process::{waitid, Pid, WaitId, WaitIdOptions};
+    let Some(pid) = i32::try_from(child.id()).ok().and_then(Pid::from_raw) else {
+        return child.try_wait().map(|s| s.is_some());
+    };
+    let options = WaitIdOptions::EXITED | WaitIdOptions::NOHANG | WaitIdOptions::NOWAIT;
+    Ok(waitid(WaitId::Pid(pid), options)?.is_some())
+}
+
+#[cfg(not(unix))]
+fn ended(child: &mut Child) -> io::Result<bool> {
+    child.try_wait().map(|s| s.is_some())
+}
+
+/// SIGKILL to the child's process group (the child and anything it started).
+fn kill_group(child: &Child) {
+    #[cfg(unix)]
+    {
+        use rustix::process::{kill_process_group, Pid, Signal};
+        if let Some(group) = i32::try_from(child.id()).ok().and_then(Pid::from_raw) {
+            let _ = kill_process_group(group, Signal::KILL);
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = child;
+}
+
+/// SIGTERM to the child's process group, SIGKILL after [`GRACE`] (or as soon as the child
+/// is gone, for anything it started), then reaps the child.
 fn stop_group(child: &mut Child) -> io::Result<()> {
     #[cfg(unix)]
     {
         use rustix::process::{kill_process_group, Pid, Signal};
-        let group = i32::try_from(child.id()).ok().and_then(Pid::from_raw);
-        if let Some(group) = group {
+        if let Some(group) = i32::try_from(child.id()).ok().and_then(Pid::from_raw) {
             let _ = kill_process_group(group, Signal::TERM);
             let deadline = Instant::now() + GRACE;
-            while Instant::now() < deadline {
-                if child.try_wait()?.is_some() {
-                    // The stage is gone; anything it started in its group goes too.
-                    let _ = kill_process_group(group, Signal::KILL);
-                    return Ok(());
-                }
+            while Instant::now() < deadline && !ended(child)? {
                 std::thread::sleep(Duration::from_millis(20));
             }
-            let _ = kill_process_group(group, Signal::KILL);
         }
     }
+    kill_group(child);
     let _ = child.kill();
     child.wait().map(drop)
 }

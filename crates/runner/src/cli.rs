@@ -108,6 +108,10 @@ pub struct RunArgs {
     /// Slurm's `--time`: each task's time limit (e.g. `2:00:00`).
     #[arg(long, value_name = "LIMIT")]
     pub slurm_time: Option<String>,
+    /// Take over an artifacts directory another pipeline wrote: its lock is replaced and
+    /// its outputs at this pipeline's paths are overwritten (without this, refused).
+    #[arg(long)]
+    pub adopt_artifacts: bool,
 }
 
 /// `reprise run --executor`.

@@ -27,10 +27,18 @@ pub enum Error {
     /// An output names an existing file that this pipeline did not write.
     #[error(
         "{file}: stage `{stage}`: output `{output}` is `{path}`, an existing file that no stage of this pipeline wrote \
-         (it is not recorded in `{lock}`); refusing to overwrite it: choose another path, move the file away, \
+         ({whose}); refusing to overwrite it: choose another path, move the file away, \
          or add `allow_overwrite = [\"{output}\"]` to `[stage.{stage}]`"
     )]
-    OutputNotOurs { file: String, stage: String, output: String, path: String, lock: String },
+    OutputNotOurs { file: String, stage: String, output: String, path: String, whose: String },
+
+    /// The artifacts directory holds another pipeline's lock.
+    #[error(
+        "{file}: the artifacts directory `{dir}` belongs to pipeline `{owner}` (its lock `{lock}` says so); running \
+         `{pipeline}` there would replace `{owner}`'s artifacts and lock. Give `{pipeline}` its own directory \
+         (`artifacts = \"…\"` under `[pipeline]`), or pass --adopt-artifacts to take this one over"
+    )]
+    ArtifactsOwned { file: String, dir: String, owner: String, pipeline: String, lock: String },
 
     /// An output cannot be a file: a directory is in the way, or a parent is a file.
     #[error("stage `{stage}`: output `{output}` is `{path}`, but {why}")]
@@ -209,6 +217,7 @@ impl Error {
             | Self::NoStages { .. }
             | Self::OutputForbidden { .. }
             | Self::OutputNotOurs { .. }
+            | Self::ArtifactsOwned { .. }
             | Self::OutputUnwritable { .. }
             | Self::PipelineRead { .. }
             | Self::PipelineSyntax { .. }

@@ -127,7 +127,7 @@ fn invoke_measured(
     let stats = pipeline.artifacts.abs.join(format!(".{}.stats.json", crate::paths::file_name(&stage.name)));
     let _ = std::fs::create_dir_all(&pipeline.artifacts.abs);
     let _ = std::fs::remove_file(&stats);
-    let call = child::Call { stats: Some(&stats), plain_progress, ..Default::default() };
+    let call = child::Call { stats: Some(&stats), plain_progress, pipeline: &pipeline.name, ..Default::default() };
     let outcome = child::invoke(stage, &bin.path, &pipeline.dir, call, interrupt)?;
     let peak_rss_mb = child::read_peak(&stats);
     let _ = std::fs::remove_file(&stats);

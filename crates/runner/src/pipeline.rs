@@ -131,8 +131,8 @@ impl Pipeline {
     /// Reads and validates the pipeline file at `path`, filling in what the stages declared
     /// in `known` leave out ([`crate::wire`]).
     pub fn load_wired(path: &Path, known: &[Wiring]) -> Result<Self> {
-        let text =
-            std::fs::read_to_string(path).map_err(|source| Error::PipelineRead { path: path.to_path_buf(), source })?;
+        let text = reprise_artifact::input::read_text(path, reprise_artifact::input::MAX_TEXT_BYTES)
+            .map_err(|e| Error::PipelineRead { path: path.to_path_buf(), source: e.into_io() })?;
         let abs =
             std::path::absolute(path).map_err(|source| Error::PipelineRead { path: path.to_path_buf(), source })?;
         let dir = crate::paths::normalize(abs.parent().unwrap_or(Path::new("/")));

@@ -45,6 +45,19 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
     remove_stale_temps_of(&lock_path);
     let (mut lock, warning) = LockFile::load(&lock_path, &pipeline.name);
     let lock_readable = warning.is_none();
+    if lock.pipeline != pipeline.name {
+        if !args.adopt_artifacts {
+            return Err(Error::ArtifactsOwned {
+                file: pipeline.file.clone(),
+                dir: pipeline.artifacts.rel.clone(),
+                owner: lock.pipeline.clone(),
+                pipeline: pipeline.name.clone(),
+                lock: lock_path.display().to_string(),
+            });
+        }
+        say(log, &format!("reprise: adopting `{}` from pipeline `{}`", pipeline.artifacts.rel, lock.pipeline));
+        lock = LockFile::empty(&pipeline.name);
+    }
     if let Some(warning) = warning {
         say(log, &format!("reprise: warning: {warning}"));
     }
@@ -55,7 +68,7 @@ pub fn run(args: &RunArgs, dirs: &BinDirs, log: &mut dyn Write) -> Result<()> {
     let order: Vec<usize> = dag.order().iter().copied().filter(|i| selected.contains(i)).collect();
     let to_run: Vec<usize> = order.iter().copied().filter(|&i| !plan[i].is_fresh()).collect();
     let stages_to_run: Vec<&Stage> = to_run.iter().map(|&i| &pipeline.stages[i]).collect();
-    crate::guard::check_existing(&pipeline, &stages_to_run, &lock, lock_readable)?;
+    crate::guard::check_existing(&pipeline, &stages_to_run, &lock, lock_readable, args.adopt_artifacts)?;
     lock.pipeline.clone_from(&pipeline.name);
     lock.stages.retain(|name, _| pipeline.stage(name).is_some());
 

@@ -178,6 +178,7 @@ fn script(pipeline: &Pipeline, tasks: &[Task<'_>], dir: &Path) -> String {
     let mut s = String::from("#!/bin/bash\n");
     let _ = writeln!(s, "# Written by `reprise run --executor slurm`: {} task(s).", tasks.len());
     let _ = writeln!(s, "cd {} || exit 1", quote(&pipeline.dir.to_string_lossy()));
+    let _ = writeln!(s, "export {}={}", reprise_artifact::provenance::PIPELINE_ENV, quote(&pipeline.name));
     s.push_str("start=$(date +%s.%N)\ncase \"$SLURM_ARRAY_TASK_ID\" in\n");
     for (i, task) in tasks.iter().enumerate() {
         let stats = dir.join(format!("{i}.stats.json"));

@@ -85,10 +85,11 @@ pub fn peak_rss_bytes() -> Option<u64> {
     Some(kb * 1024)
 }
 
-/// A provenance record for `stage` at this crate version, with `params` serialised.
+/// A provenance record for `stage` at this crate version, with `params` serialised and
+/// the pipeline the runner named ([`reprise_artifact::provenance::PIPELINE_ENV`]).
 pub fn provenance(stage: &str, version: &str, params: &impl Serialize) -> Provenance {
     let params = serde_json::to_value(params).expect("stage parameters serialise to JSON");
-    Provenance::new(stage, version, params)
+    Provenance { pipeline: reprise_artifact::provenance::pipeline_from_env(), ..Provenance::new(stage, version, params) }
 }
 
 /// What one system of a transition benchmark stage did with its requests: how many it

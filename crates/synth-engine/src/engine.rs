@@ -291,7 +291,10 @@ impl<'l, 'a> Run<'l, 'a> {
             })
             .map(|f| f.x.clone())
             .ok_or_else(|| {
-                bad(format!("no training frame {frame} of segment {:?} / clip {:?}", pose.segment, pose.clip))
+                bad(format!(
+                    "no training frame {frame} of {}",
+                    crate::script::segment_or_clip(pose.segment, pose.clip.as_deref())
+                ))
             })
     }
 
@@ -525,7 +528,10 @@ impl<'l, 'a> Run<'l, 'a> {
                 let Some(first) = frames.iter().min_by_key(|f| (f.segment, f.frame)) else {
                     return Err(SynthError::BadPose {
                         label,
-                        what: format!("no segment {segment:?} / clip {clip:?} to play"),
+                        what: format!(
+                            "no {} to play in this label",
+                            crate::script::segment_or_clip(*segment, clip.as_deref())
+                        ),
                     });
                 };
                 let seg = first.segment;

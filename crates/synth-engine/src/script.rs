@@ -149,6 +149,28 @@ pub struct Script {
     pub commands: Vec<Command>,
 }
 
+impl Command {
+    /// The command as a person wrote it, for messages: `idle 1.5 s`, `transition to `happy``.
+    pub fn describe(&self) -> String {
+        match self {
+            Self::Idle { duration, .. } => format!("idle {duration} s"),
+            Self::Move { duration, .. } => format!("move over {duration} s"),
+            Self::Transition { to, .. } => format!("transition to `{to}`"),
+            Self::Play { segment, clip } => format!("play {}", segment_or_clip(*segment, clip.as_deref())),
+        }
+    }
+}
+
+/// `segment 3`, `clip `x``, `segment 3 of clip `x`` or `no segment or clip`, for messages.
+pub fn segment_or_clip(segment: Option<i64>, clip: Option<&str>) -> String {
+    match (segment, clip) {
+        (Some(s), Some(c)) => format!("segment {s} of clip `{c}`"),
+        (Some(s), None) => format!("segment {s}"),
+        (None, Some(c)) => format!("clip `{c}`"),
+        (None, None) => "no segment or clip".into(),
+    }
+}
+
 impl Script {
     /// Parses TOML text; errors carry the line and column.
     pub fn parse(text: &str) -> Result<Self, String> {
@@ -194,8 +216,9 @@ impl Script {
         let s = self;
         let pos = |v: f64| v > 0.0 && v.is_finite();
         let secs = |v: f64| pos(v) && v <= MAX_SECONDS;
+        let mut label = s.start.label.as_str();
         for (i, c) in s.commands.iter().enumerate() {
-            let bad = |what: &str| Err(format!("command {} ({c:?}): {what}", i + 1));
+            let bad = |what: &str| Err(format!("command {} ({}): {what}", i + 1, c.describe()));
             match c {
                 Command::Idle { duration, radius, hover, .. } => {
                     if !secs(*duration) || radius.is_some_and(|r| !pos(r)) || hover.is_some_and(|h| !secs(h)) {
@@ -211,10 +234,22 @@ impl Script {
                         ));
                     }
                 }
-                Command::Transition { blend_frames, .. } => {
+                Command::Transition { blend_frames, to } => {
                     if blend_frames.is_some_and(|b| b == 0 || b > MAX_BLEND_FRAMES) {
                         return bad(&format!("blend_frames must be at least 1 and at most {MAX_BLEND_FRAMES}"));
                     }
+                    if to == label {
+                        let since = if s.commands[..i].iter().any(|c| matches!(c, Command::Transition { .. })) {
+                            "an earlier TRANSITION went there"
+                        } else {
+                            "it starts there"
+                        };
+                        return bad(&format!(
+                            "the character is already in `{to}` ({since}); a TRANSITION must change the label \
+                             (use IDLE or MOVE to stay)"
+                        ));
+                    }
+                    label = to;
                 }
                 Command::Play { segment, clip } => {
                     if segment.is_some() == clip.is_some() {
@@ -230,6 +265,32 @@ impl Script {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A TRANSITION to the label the character is in made 0 frames and said nothing; now
+    /// the script is refused, naming the command in words (not a Rust debug form).
+    #[test]
+    fn a_transition_to_the_current_label_is_refused() {
+        let text = |to: &str| {
+            format!(
+                "start = {{ label = \"roar\" }}\n[[command]]\ntype = \"transition\"\nto = \"happy\"\n\
+                 [[command]]\ntype = \"idle\"\nduration = 1.0\n[[command]]\ntype = \"transition\"\nto = \"{to}\"\n"
+            )
+        };
+        let e = Script::parse(&text("happy")).unwrap_err();
+        assert_eq!(
+            e,
+            "command 3 (transition to `happy`): the character is already in `happy` (an earlier TRANSITION went \
+             there); a TRANSITION must change the label (use IDLE or MOVE to stay)"
+        );
+        assert!(Script::parse(&text("roar")).is_ok(), "back to the start label is a change");
+        let e = Script::parse("start = { label = \"roar\" }\n[[command]]\ntype = \"transition\"\nto = \"roar\"\n")
+            .unwrap_err();
+        assert!(e.contains("(it starts there)"), "{e}");
+        let e = Script::parse("start = { label = \"a\" }\n[[command]]\ntype = \"idle\"\nduration = -1.0\n").unwrap_err();
+        assert!(e.starts_with("command 1 (idle -1 s): duration") && !e.contains("Idle {"), "{e}");
+        assert_eq!(segment_or_clip(None, Some("x")), "clip `x`");
+        assert_eq!(segment_or_clip(Some(2), None), "segment 2");
+    }
 
     /// Every command parses; unknown keys and bad values are errors naming the place.
     #[test]

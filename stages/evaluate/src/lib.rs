@@ -337,6 +337,10 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
     let page = figures::figures(inputs, &provenance)?;
     let html = html::page(&page, &out, &ctx);
     write_metrics(&args.io.metrics, &out, &provenance)?;
+    // What wrote the pages, so a rerun knows them as its own without its lock.
+    let marker = reprise_artifact::provenance::output_marker(WIRING.stage, provenance.pipeline.as_deref());
+    let md = format!("{md}\n<!-- {marker} -->\n");
+    let html = html.replacen("<head>", &format!("<head><meta name='generator' content='{marker}'>"), 1);
     for (path, text) in [(&args.io.report, md.as_str()), (&args.io.html, html.as_str())] {
         reprise_artifact::table::write_atomic(path, |f| {
             use std::io::Write as _;

@@ -113,6 +113,37 @@ fn time_column<'a>(table: &RawTable, base: &TimeBase<'a>) -> &'a str {
     }
 }
 
+/// The most controls a curve table may have: 10,000. A hero face rig has a few thousand;
+/// each control is a column of every artifact after ingest, and writing one costs about
+/// 70 KB of buffers, so 10,000 stay within 1 GB where 100,000 took 6.8 GB.
+pub const MAX_CONTROLS: usize = 10_000;
+
+/// Refuses `controls` of the table at `path` when there are more than [`MAX_CONTROLS`], or
+/// when two names differ only in case (`Jaw`, `jaw`): rigs, file systems and DCC tools
+/// disagree on whether those are one control, so a table must not depend on it.
+pub(crate) fn check_controls(path: &std::path::Path, controls: &[String]) -> StageResult<()> {
+    if controls.len() > MAX_CONTROLS {
+        return Err(StageError::Input(format!(
+            "{}: {} controls, more than the {MAX_CONTROLS} reprise reads (a rig has a few thousand at most); is a \
+             long table (`clip`, `time`, `control`, `value`) being read as a wide one, or are unrelated columns \
+             included? (--ignore-columns drops columns)",
+            path.display(),
+            controls.len()
+        )));
+    }
+    let mut seen: HashMap<String, &str> = HashMap::with_capacity(controls.len());
+    for c in controls {
+        if let Some(first) = seen.insert(c.to_lowercase(), c) {
+            return Err(StageError::Input(format!(
+                "{}: controls `{first}` and `{c}` differ only in case; rename one (rigs and tools disagree on \
+                 whether they are the same control)",
+                path.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Reads a wide table: `clip`? , `frame` and/or `time`, then one numeric column per control.
 pub(crate) fn wide(table: &RawTable, base: &TimeBase<'_>) -> StageResult<Curves> {
     let names = table.column_names();
@@ -127,6 +158,7 @@ pub(crate) fn wide(table: &RawTable, base: &TimeBase<'_>) -> StageResult<Curves>
     if controls.is_empty() {
         return Err(StageError::Input(format!("{}: no control columns", table.path().display())));
     }
+    check_controls(table.path(), &controls)?;
     let (clips, times) = row_keys(table, base)?;
     let columns = controls.iter().map(|c| table.numbers(c)).collect::<StageResult<Vec<_>>>()?;
     let mut order: Vec<String> = Vec::new();
@@ -185,6 +217,7 @@ pub(crate) fn long(table: &RawTable, base: &TimeBase<'_>) -> StageResult<Curves>
             controls.push(c.clone());
         }
     }
+    check_controls(table.path(), &controls)?;
     // Per clip, in first-appearance order: the sorted distinct times, then a filled grid.
     let mut order: Vec<&str> = Vec::new();
     let mut rows_of: HashMap<&str, Vec<usize>> = HashMap::new();

@@ -14,6 +14,14 @@ pub(crate) enum RawTable {
     Parquet { table: Table },
 }
 
+/// The largest curve CSV read (see [`RawTable::read`]): 8 GiB; its values are bounded by
+/// `--max-values` as well.
+const MAX_CSV_BYTES: u64 = 8 << 30;
+
+/// The largest magnitude of a number in a curve table (times, frames and controls):
+/// 10¹⁵. Sums of squares of a billion such values still stay finite.
+pub(crate) const MAX_MAGNITUDE: f64 = 1e15;
+
 impl RawTable {
     /// Reads a `.csv` or `.parquet` file (by extension).
     pub(crate) fn read(path: &Path) -> StageResult<Self> {
@@ -32,8 +40,19 @@ impl RawTable {
 
     fn read_csv(path: &Path) -> StageResult<Self> {
         let io = |e: &dyn std::fmt::Display| StageError::Input(format!("{}: {e}", path.display()));
+        let len = reprise_artifact::input::check_file(path, MAX_CSV_BYTES).map_err(|e| StageError::Input(e.to_string()))?;
+        if len == 0 {
+            return Err(StageError::Input(format!(
+                "{}: the file is empty; a curve table starts with a header line (`clip,frame,<control>,…`)",
+                path.display()
+            )));
+        }
         let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_path(path).map_err(|e| io(&e))?;
         let headers: Vec<String> = reader.headers().map_err(|e| io(&e))?.iter().map(String::from).collect();
+        // Refused from the header, before a row is read (key columns aside).
+        if headers.len() > crate::curves::MAX_CONTROLS + 8 {
+            crate::curves::check_controls(path, &headers)?;
+        }
         if let [only] = headers.as_slice() {
             if let Some(sep) = [';', '\t', '|'].into_iter().find(|c| only.contains(*c)) {
                 let shown = if sep == '\t' { "a tab".to_string() } else { format!("`{sep}`") };
@@ -124,6 +143,23 @@ impl RawTable {
 
     /// A column of finite numbers.
     pub(crate) fn numbers(&self, column: &str) -> StageResult<Vec<f64>> {
+        let values = self.finite_numbers(column)?;
+        match values.iter().position(|v| v.abs() > MAX_MAGNITUDE) {
+            Some(row) => Err(self.error(
+                row,
+                column,
+                &format!(
+                    "value {:e} is beyond ±{MAX_MAGNITUDE:e}: no rig control is that large, and its square overflows \
+                     the statistics of every later stage (a typo, or a unit far too small?)",
+                    values[row]
+                ),
+            )),
+            None => Ok(values),
+        }
+    }
+
+    /// A column of finite numbers, as read.
+    fn finite_numbers(&self, column: &str) -> StageResult<Vec<f64>> {
         match self {
             Self::Parquet { table } => Ok(table.numbers(column)?),
             Self::Csv { records, .. } => {

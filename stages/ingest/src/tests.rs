@@ -330,3 +330,62 @@ fn the_help_names_every_source() {
         assert!(about.contains(source), "{about}");
     }
 }
+
+/// Round three of the fault catalogue (#27): each refused with the file, the place and
+/// what to do, and nothing written.
+mod faults_round_three {
+    use super::*;
+
+    fn refused(name: &str, text: &str) -> String {
+        let dir = tempfile::tempdir().unwrap();
+        let a = args(dir.path(), name, text);
+        let e = run(&a).err().expect("refused").to_string();
+        assert!(outputs(&a).iter().all(|p| !p.exists()), "nothing written: {e}");
+        e
+    }
+
+    /// 100,000 columns of 10 rows took 6.8 GB; now refused from the header line.
+    #[test]
+    fn a_table_of_a_hundred_thousand_columns_is_refused_from_its_header() {
+        let header: Vec<String> = std::iter::once("frame".to_string()).chain((0..100_000).map(|i| format!("c{i}"))).collect();
+        let row: Vec<String> = std::iter::once("0".to_string()).chain((0..100_000).map(|_| "0.5".to_string())).collect();
+        let text = format!("{}\n{}\n", header.join(","), row.join(","));
+        let start = std::time::Instant::now();
+        let e = refused("wide.csv", &text);
+        assert!(e.contains("wide.csv: 100001 controls, more than the 10000 reprise reads"), "{e}");
+        assert!(start.elapsed() < std::time::Duration::from_secs(20), "refused at once");
+    }
+
+    #[test]
+    fn controls_differing_only_in_case_are_refused() {
+        let e = refused("c.csv", "frame,Jaw,jaw\n0,0,1\n1,0,1\n");
+        assert!(e.contains("c.csv: controls `Jaw` and `jaw` differ only in case"), "{e}");
+    }
+
+    #[test]
+    fn an_empty_file_says_it_is_empty() {
+        let e = refused("c.csv", "");
+        assert!(e.contains("c.csv: the file is empty; a curve table starts with a header line"), "{e}");
+    }
+
+    /// `1e308` is finite, but its square is not: it made `std = inf` in a later stage.
+    #[test]
+    fn a_value_whose_square_overflows_is_refused_where_it_is() {
+        let e = refused("c.csv", "frame,jaw\n0,0\n1,1e308\n");
+        assert!(e.contains("c.csv: line 3, column `jaw`: value 1e308"), "{e}");
+        assert!(e.contains("beyond ±1e15"), "{e}");
+    }
+
+    /// A device or a directory given as the curve table is refused by name, at once.
+    #[cfg(unix)]
+    #[test]
+    fn a_device_is_not_a_curve_table() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut a = args(dir.path(), "c.csv", "frame,jaw\n0,0\n");
+        let dev = dir.path().join("zero.csv");
+        std::os::unix::fs::symlink("/dev/zero", &dev).unwrap();
+        a.io.curves = Some(dev);
+        let e = run(&a).err().expect("refused").to_string();
+        assert!(e.contains("zero.csv: a character device, not a regular file"), "{e}");
+    }
+}

@@ -140,7 +140,8 @@ fn range(path: &Path, origin: &str, start: Option<i64>, end: Option<i64>) -> Sta
 impl LabelsFile {
     /// Reads a `.toml` or `.csv` labels file.
     pub(crate) fn read(path: &Path) -> StageResult<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| StageError::Input(format!("{}: {e}", path.display())))?;
+        let text = reprise_artifact::input::read_text(path, reprise_artifact::input::MAX_TEXT_BYTES)
+            .map_err(|e| StageError::Input(e.to_string()))?;
         Self::parse(path, &text)
     }
 

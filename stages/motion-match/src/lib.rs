@@ -127,6 +127,14 @@ impl Args {
                     .into(),
             ));
         }
+        // As `synthesize` and the transition benchmark: a blend has at least one frame (0
+        // silently made the crossfade a cut).
+        if self.blend_frames == 0 {
+            return Err(StageError::Config(
+                "--blend-frames must be at least 1, as synthesize's blend_frames (0 would make the crossfade a cut)"
+                    .into(),
+            ));
+        }
         Ok(())
     }
 }
@@ -501,6 +509,18 @@ mod tests {
             format!("motion-match: label `{l}` (clips of at most 60 frames) is crossfaded into over 59 frames instead of 61")
         };
         assert_eq!(corpus(&args).short_windows(61), [line("a"), line("b")]);
+    }
+
+    /// `--blend-frames 0` silently made the crossfade a cut; it is refused as synthesize
+    /// refuses it.
+    #[test]
+    fn a_zero_frame_blend_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut args = write_inputs(dir.path(), &[request(0, "b", 0, 10)], 60);
+        args.blend_frames = 0;
+        let err = run(&args).unwrap_err();
+        assert_eq!(err.code(), reprise_stagekit::exit::CONFIG);
+        assert!(err.to_string().contains("--blend-frames must be at least 1"), "{err}");
     }
 
     /// A request starting at a frame the labeled frames do not have is refused, naming it.

@@ -199,8 +199,8 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<ScriptSummary>>> {
         return Ok(None);
     }
     let provenance = args.io.provenance(args)?;
-    let text = std::fs::read_to_string(&args.io.scripts)
-        .map_err(|e| StageError::Input(format!("{}: {e}", args.io.scripts.display())))?;
+    let text = reprise_artifact::input::read_text(&args.io.scripts, reprise_artifact::input::MAX_TEXT_BYTES)
+        .map_err(|e| StageError::Input(e.to_string()))?;
     let stem = args.io.scripts.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let scripts = Script::parse_file(&text, &stem)
         .map_err(|e| StageError::Input(format!("{}: {e}", args.io.scripts.display())))?;

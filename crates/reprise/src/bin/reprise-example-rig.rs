@@ -29,6 +29,10 @@ struct Args {
     /// Answer one pose short after the first batch (to test wrong-size replies).
     #[arg(long)]
     wrong_count: bool,
+    /// Answer NaN for the first vertex of every pose after this many batches (to test
+    /// non-finite replies).
+    #[arg(long)]
+    nan_after: Option<usize>,
 }
 
 fn main() {
@@ -63,6 +67,9 @@ fn serve(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
         for r in 0..rows {
             let pose: Vec<f64> = columns.iter().map(|c| c.value(r)).collect();
             rig.eval_into(&pose, &mut out);
+            if args.nan_after.is_some_and(|n| answered >= n) {
+                out[0] = f64::NAN;
+            }
             values.extend_from_slice(&out);
         }
         let item = Arc::new(Field::new("item", DataType::Float64, false));
