@@ -74,10 +74,11 @@ fn evaluator_answering_nan() {
 fn evaluator_writing_text_is_named_at_once() {
     let start = std::time::Instant::now();
     let command: Vec<String> = ["sh", "-c", "echo loading the rig...; sleep 30"].map(String::from).to_vec();
-    let err = ExternalRig::spawn_with_timeout(&command, Path::new("."), names(2), vec![0.0; 2], Duration::from_secs(20))
-        .err()
-        .unwrap()
-        .to_string();
+    let err =
+        ExternalRig::spawn_with_timeout(&command, Path::new("."), names(2), vec![0.0; 2], Duration::from_secs(20))
+            .err()
+            .unwrap()
+            .to_string();
     assert!(err.contains("its output is not an Arrow IPC stream: it starts with `loading `"), "{err}");
     assert!(err.contains("logs go to stderr"), "{err}");
     assert!(start.elapsed() < Duration::from_secs(10), "not after the time-out: {:?}", start.elapsed());

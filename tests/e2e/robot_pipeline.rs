@@ -87,13 +87,18 @@ fn robot_expressive_through_gplvm() {
     std::fs::remove_file(p.path("artifacts/robot-expressive/reprise.lock")).unwrap();
     let out = p.reprise(&["run"]).ok();
     assert!(out.contains("running evaluate") && out.contains("running export-gltf"), "{out}");
-    assert!(p.read("reports/robot-expressive/report.md").contains("<!-- reprise:stage=evaluate;pipeline=robot-expressive -->"));
+    assert!(p
+        .read("reports/robot-expressive/report.md")
+        .contains("<!-- reprise:stage=evaluate;pipeline=robot-expressive -->"));
 
     // A second pipeline writing into the same artifacts directory is refused, naming both;
     // `--adopt-artifacts` takes the directory over.
     p.write("other.toml", &toml.replace("name = \"robot-expressive\"", "name = \"robot-two\""));
     let err = p.reprise(&["run", "-p", "other.toml", "--to", "ingest"]).fails(2);
-    assert!(err.contains("belongs to pipeline `robot-expressive`") && err.contains("running `robot-two` there"), "{err}");
+    assert!(
+        err.contains("belongs to pipeline `robot-expressive`") && err.contains("running `robot-two` there"),
+        "{err}"
+    );
     let out = p.reprise(&["run", "-p", "other.toml", "--to", "ingest", "--adopt-artifacts"]).ok();
     assert!(out.contains("adopting"), "{out}");
     let err = p.reprise(&["run", "--to", "ingest"]).fails(2);

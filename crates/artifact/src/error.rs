@@ -81,7 +81,8 @@ mod tests {
     /// exits as an environment error, 6, not as bad input, 3); a format error stays one.
     #[test]
     fn io_errors_under_parquet_keep_their_kind() {
-        let full = parquet::errors::ParquetError::External(Box::new(std::io::Error::from(std::io::ErrorKind::StorageFull)));
+        let full =
+            parquet::errors::ParquetError::External(Box::new(std::io::Error::from(std::io::ErrorKind::StorageFull)));
         match ArtifactError::parquet("t.parquet", full) {
             ArtifactError::Io { source, .. } => assert_eq!(source.kind(), std::io::ErrorKind::StorageFull),
             other => panic!("{other}"),

@@ -49,9 +49,10 @@ impl InputError {
             Self::NotRegular { what, .. } => {
                 Error::new(ErrorKind::InvalidInput, format!("{what}, not a regular file; give the path of a file"))
             }
-            Self::TooLarge { len, max, hint, .. } => {
-                Error::new(ErrorKind::InvalidInput, format!("{len} bytes, more than the {max} this input may have{hint}"))
-            }
+            Self::TooLarge { len, max, hint, .. } => Error::new(
+                ErrorKind::InvalidInput,
+                format!("{len} bytes, more than the {max} this input may have{hint}"),
+            ),
         }
     }
 }

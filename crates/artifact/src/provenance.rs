@@ -75,7 +75,13 @@ pub struct Provenance {
 impl Provenance {
     /// A provenance record with no inputs yet.
     pub fn new(stage: &str, stage_version: &str, params: serde_json::Value) -> Self {
-        Self { stage: stage.into(), stage_version: stage_version.into(), params, inputs: BTreeMap::new(), pipeline: None }
+        Self {
+            stage: stage.into(),
+            stage_version: stage_version.into(),
+            params,
+            inputs: BTreeMap::new(),
+            pipeline: None,
+        }
     }
 
     /// Records an input file by hashing its content now.

@@ -90,7 +90,12 @@ impl Columns {
     /// of a value that must be finite and is not.
     pub(crate) fn into_batch(self, path: &Path, first_row: usize) -> Result<RecordBatch> {
         if let Some((column, row, value)) = self.first_non_finite() {
-            return Err(ArtifactError::NotFinite { path: path.into(), column: column.into(), row: first_row + row, value });
+            return Err(ArtifactError::NotFinite {
+                path: path.into(),
+                column: column.into(),
+                row: first_row + row,
+                value,
+            });
         }
         RecordBatch::try_new(Arc::new(Schema::new(self.fields)), self.arrays)
             .map_err(|e| ArtifactError::parquet(path, e))

@@ -207,3 +207,25 @@ fn missing_file_and_bad_fps() {
     let path = triangle_file(dir.path(), "LINEAR");
     assert!(matches!(ingest(&path, 0.0), Err(GltfError::BadFps { .. })));
 }
+
+/// A buffer `uri` naming `/dev/zero` with a huge `byteLength` drove ingest to 23.8 GB; a
+/// device (or a FIFO, a directory) is refused by name before anything is read.
+#[cfg(unix)]
+#[test]
+fn a_buffer_that_is_a_device_is_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("zero.gltf");
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "buffers": [{"uri": "/dev/zero", "byteLength": 100_000_000_000u64}],
+        "bufferViews": [{"buffer": 0, "byteLength": 16}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "SCALAR"}],
+        "nodes": [{"name": "n"}],
+        "scenes": [{"nodes": [0]}],
+        "animations": [{"channels": [{"sampler": 0, "target": {"node": 0, "path": "translation"}}],
+                        "samplers": [{"input": 0, "output": 0}]}]
+    });
+    std::fs::write(&path, doc.to_string()).unwrap();
+    let e = ingest(&path, 24.0).err().map(|e| e.to_string()).unwrap();
+    assert!(e.contains("buffer 0: /dev/zero: a character device, not a regular file"), "{e}");
+}

@@ -50,7 +50,8 @@ pub fn spawn_tied(command: Command) -> std::io::Result<Child> {
     });
     let Some(spawner) = spawner else { return command.spawn() };
     let (reply, answer) = std::sync::mpsc::channel();
-    let sent = spawner.lock().map_err(|_| std::io::Error::other("the spawner's lock is poisoned"))?.send((command, reply));
+    let sent =
+        spawner.lock().map_err(|_| std::io::Error::other("the spawner's lock is poisoned"))?.send((command, reply));
     sent.map_err(|_| std::io::Error::other("the spawner thread is gone"))?;
     answer.recv().map_err(|_| std::io::Error::other("the spawner thread is gone"))?
 }
@@ -103,7 +104,8 @@ fn ipc_start(mut out: impl Read) -> Result<impl Read, String> {
         || (got == 8 && word(0) == u32::MAX && word(4) <= MAX_METADATA)
         || (got >= 4 && word(0) <= MAX_METADATA);
     if !ok {
-        let shown: String = head[..got].iter().map(|&b| if b.is_ascii_graphic() || b == b' ' { b as char } else { '.' }).collect();
+        let shown: String =
+            head[..got].iter().map(|&b| if b.is_ascii_graphic() || b == b' ' { b as char } else { '.' }).collect();
         return Err(format!(
             "{NOT_IPC}: it starts with `{shown}` (bytes {:02x?}); an evaluator writes only Arrow IPC to its stdout \
              (logs go to stderr)",
@@ -161,9 +163,9 @@ impl ExternalRig {
         let line = command.join(" ");
         let fail = |message: String| RigError::External { command: line.clone(), message };
         let (program, args) = command.split_first().ok_or_else(|| fail("empty command".into()))?;
-        let mut command = Command::new(program);
-        command.args(args).current_dir(base).stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped());
-        let mut child = spawn_tied(command).map_err(|e| fail(format!("cannot start: {e}")))?;
+        let mut process = Command::new(program);
+        process.args(args).current_dir(base).stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped());
+        let mut child = spawn_tied(process).map_err(|e| fail(format!("cannot start: {e}")))?;
         let stderr = Arc::new(Mutex::new(String::new()));
         let mut err_pipe = child.stderr.take().expect("stderr is piped");
         let sink = stderr.clone();
@@ -187,17 +189,19 @@ impl ExternalRig {
         });
         let stdout = child.stdout.take().expect("stdout is piped");
         let (tx, replies) = std::sync::mpsc::channel();
-        std::thread::spawn(move || match ipc_start(stdout).and_then(|s| StreamReader::try_new(s, None).map_err(|e| e.to_string())) {
-            Err(e) if e.starts_with(NOT_IPC) => {
-                let _ = tx.send(Err(e));
-            }
-            Err(e) => {
-                let _ = tx.send(Err(format!("{NOT_IPC}: {e}")));
-            }
-            Ok(reader) => {
-                for batch in reader {
-                    if tx.send(batch.map_err(|e| format!("bad Arrow IPC batch: {e}"))).is_err() {
-                        break;
+        std::thread::spawn(move || {
+            match ipc_start(stdout).and_then(|s| StreamReader::try_new(s, None).map_err(|e| e.to_string())) {
+                Err(e) if e.starts_with(NOT_IPC) => {
+                    let _ = tx.send(Err(e));
+                }
+                Err(e) => {
+                    let _ = tx.send(Err(format!("{NOT_IPC}: {e}")));
+                }
+                Ok(reader) => {
+                    for batch in reader {
+                        if tx.send(batch.map_err(|e| format!("bad Arrow IPC batch: {e}"))).is_err() {
+                            break;
+                        }
                     }
                 }
             }

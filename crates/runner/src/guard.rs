@@ -94,9 +94,7 @@ pub fn check_existing(
                 || match &writer {
                     // Written by this stage: of this pipeline, by hand (no pipeline), or of
                     // a pipeline whose directory this one adopts.
-                    Some((by, p)) if *by == stage.name => {
-                        p.as_deref().is_none_or(|p| p == pipeline.name) || adopt
-                    }
+                    Some((by, p)) if *by == stage.name => p.as_deref().is_none_or(|p| p == pipeline.name) || adopt,
                     Some(_) => false,
                     None => !lock_readable && path.abs.starts_with(&pipeline.artifacts.abs),
                 };
@@ -104,7 +102,10 @@ pub fn check_existing(
                 let whose = match &writer {
                     Some((by, Some(p))) if p != &pipeline.name => format!("stage `{by}` of pipeline `{p}` wrote it"),
                     Some((by, _)) if *by != stage.name => format!("stage `{by}` wrote it"),
-                    _ => format!("it is not recorded in `{}` and carries no reprise provenance", pipeline.lock_path().display()),
+                    _ => format!(
+                        "it is not recorded in `{}` and carries no reprise provenance",
+                        pipeline.lock_path().display()
+                    ),
                 };
                 return Err(Error::OutputNotOurs {
                     file: pipeline.file.clone(),
@@ -135,7 +136,8 @@ pub fn writer_of(path: &Path) -> Option<(String, Option<String>)> {
     }
     let text = marker_text(path)?;
     let at = text.find("reprise:stage=")? + "reprise:stage=".len();
-    let word = |s: &str| s.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_' || *c == '-').collect::<String>();
+    let word =
+        |s: &str| s.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_' || *c == '-').collect::<String>();
     let stage = word(&text[at..]);
     let rest = &text[at + stage.len()..];
     let pipeline = rest.strip_prefix(";pipeline=").map(word);
@@ -248,8 +250,11 @@ mod tests {
         assert!(e.contains("(stage `a` of pipeline `u` wrote it)"), "{e}");
         let p = parse(d, "outputs.o = \"theirs.md\"").unwrap();
         check_existing(&p, &[&p.stages[0]], &empty, true, true).unwrap();
-        std::fs::write(d.join("b.md"), format!("<!-- {} -->", reprise_artifact::provenance::output_marker("b", Some("t"))))
-            .unwrap();
+        std::fs::write(
+            d.join("b.md"),
+            format!("<!-- {} -->", reprise_artifact::provenance::output_marker("b", Some("t"))),
+        )
+        .unwrap();
         let e = existing(d, "outputs.o = \"b.md\"", &empty, true).unwrap_err().to_string();
         assert!(e.contains("(stage `b` wrote it)"), "{e}");
     }

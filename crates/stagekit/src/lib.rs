@@ -89,7 +89,10 @@ pub fn peak_rss_bytes() -> Option<u64> {
 /// the pipeline the runner named ([`reprise_artifact::provenance::PIPELINE_ENV`]).
 pub fn provenance(stage: &str, version: &str, params: &impl Serialize) -> Provenance {
     let params = serde_json::to_value(params).expect("stage parameters serialise to JSON");
-    Provenance { pipeline: reprise_artifact::provenance::pipeline_from_env(), ..Provenance::new(stage, version, params) }
+    Provenance {
+        pipeline: reprise_artifact::provenance::pipeline_from_env(),
+        ..Provenance::new(stage, version, params)
+    }
 }
 
 /// What one system of a transition benchmark stage did with its requests: how many it

@@ -286,7 +286,8 @@ mod tests {
         let e = Script::parse("start = { label = \"roar\" }\n[[command]]\ntype = \"transition\"\nto = \"roar\"\n")
             .unwrap_err();
         assert!(e.contains("(it starts there)"), "{e}");
-        let e = Script::parse("start = { label = \"a\" }\n[[command]]\ntype = \"idle\"\nduration = -1.0\n").unwrap_err();
+        let e =
+            Script::parse("start = { label = \"a\" }\n[[command]]\ntype = \"idle\"\nduration = -1.0\n").unwrap_err();
         assert!(e.starts_with("command 1 (idle -1 s): duration") && !e.contains("Idle {"), "{e}");
         assert_eq!(segment_or_clip(None, Some("x")), "clip `x`");
         assert_eq!(segment_or_clip(Some(2), None), "segment 2");

@@ -74,7 +74,10 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<(String, usize)>>> {
             }
         })
         .collect();
-    let marker = reprise_artifact::provenance::output_marker(WIRING.stage, reprise_artifact::provenance::pipeline_from_env().as_deref());
+    let marker = reprise_artifact::provenance::output_marker(
+        WIRING.stage,
+        reprise_artifact::provenance::pipeline_from_env().as_deref(),
+    );
     reprise_gltf::export(&src, &args.io.glb, &clips, &marker).map_err(|e| StageError::Input(e.to_string()))?;
     Ok(Some(clips.iter().map(|c| (c.name.clone(), c.values.len() / n.max(1))).collect()))
 }

@@ -40,7 +40,8 @@ impl RawTable {
 
     fn read_csv(path: &Path) -> StageResult<Self> {
         let io = |e: &dyn std::fmt::Display| StageError::Input(format!("{}: {e}", path.display()));
-        let len = reprise_artifact::input::check_file(path, MAX_CSV_BYTES).map_err(|e| StageError::Input(e.to_string()))?;
+        let len =
+            reprise_artifact::input::check_file(path, MAX_CSV_BYTES).map_err(|e| StageError::Input(e.to_string()))?;
         if len == 0 {
             return Err(StageError::Input(format!(
                 "{}: the file is empty; a curve table starts with a header line (`clip,frame,<control>,…`)",

@@ -240,7 +240,8 @@ fn parquet_curves_with_bad_values_name_the_row() {
     use reprise_artifact::{table, Columns, Kind, Provenance};
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("c.parquet");
-    let cols = Columns::new().i64("frame", vec![0, 1, 2]).f64("jaw", vec![0.0, f64::INFINITY, 1.0]);
+    // A user's table (reprise itself never writes a non-finite value).
+    let cols = Columns::new().i64("frame", vec![0, 1, 2]).f64_any("jaw", vec![0.0, f64::INFINITY, 1.0]);
     table::write(
         &path,
         Kind { name: "user", version: 1 },
@@ -339,7 +340,7 @@ mod faults_round_three {
     fn refused(name: &str, text: &str) -> String {
         let dir = tempfile::tempdir().unwrap();
         let a = args(dir.path(), name, text);
-        let e = run(&a).err().expect("refused").to_string();
+        let e = run(&a).expect_err("refused").to_string();
         assert!(outputs(&a).iter().all(|p| !p.exists()), "nothing written: {e}");
         e
     }
@@ -347,8 +348,10 @@ mod faults_round_three {
     /// 100,000 columns of 10 rows took 6.8 GB; now refused from the header line.
     #[test]
     fn a_table_of_a_hundred_thousand_columns_is_refused_from_its_header() {
-        let header: Vec<String> = std::iter::once("frame".to_string()).chain((0..100_000).map(|i| format!("c{i}"))).collect();
-        let row: Vec<String> = std::iter::once("0".to_string()).chain((0..100_000).map(|_| "0.5".to_string())).collect();
+        let header: Vec<String> =
+            std::iter::once("frame".to_string()).chain((0..100_000).map(|i| format!("c{i}"))).collect();
+        let row: Vec<String> =
+            std::iter::once("0".to_string()).chain((0..100_000).map(|_| "0.5".to_string())).collect();
         let text = format!("{}\n{}\n", header.join(","), row.join(","));
         let start = std::time::Instant::now();
         let e = refused("wide.csv", &text);
@@ -385,7 +388,7 @@ mod faults_round_three {
         let dev = dir.path().join("zero.csv");
         std::os::unix::fs::symlink("/dev/zero", &dev).unwrap();
         a.io.curves = Some(dev);
-        let e = run(&a).err().expect("refused").to_string();
+        let e = run(&a).expect_err("refused").to_string();
         assert!(e.contains("zero.csv: a character device, not a regular file"), "{e}");
     }
 }

@@ -267,9 +267,15 @@ mod tests {
         let path = dir.path().join("f.parquet");
         let mut bad = sample();
         bad.values[3] = f64::NAN;
-        bad.write(&path, &prov()).unwrap();
-        let err = Frames::read(&path).unwrap_err().to_string();
+        // Never written by reprise…
+        let err = bad.write(&path, &prov()).unwrap_err().to_string();
         assert!(err.contains("column `brow_L`, row 1") && err.contains("not finite"), "{err}");
+        // …and refused on reading a file from elsewhere that holds one.
+        let cols =
+            Columns::new().str(CLIP, &["a"]).i64(FRAME, vec![0]).f64(TIME, vec![0.0]).f64_any("brow_L", vec![f64::NAN]);
+        write(&path, FRAMES, cols, &prov(), &[(KEY_FPS.into(), "24".into())]).unwrap();
+        let err = Frames::read(&path).unwrap_err().to_string();
+        assert!(err.contains("column `brow_L`, row 0") && err.contains("not finite"), "{err}");
         let cols = Columns::new().str(CLIP, &["a"]).f64(TIME, vec![0.0]);
         write(&path, FRAMES, cols, &prov(), &[(KEY_FPS.into(), "24".into())]).unwrap();
         let err = Frames::read(&path).unwrap_err().to_string();
