@@ -86,7 +86,7 @@ fn robot_expressive_through_gplvm() {
     // this pipeline wrote").
     std::fs::remove_file(p.path("artifacts/robot-expressive/reprise.lock")).unwrap();
     let out = p.reprise(&["run"]).ok();
-    assert!(out.contains("running evaluate") && out.contains("running export-gltf"), "{out}");
+    assert!(out.contains("running evaluate") && out.contains("running export "), "{out}");
     assert!(p
         .read("reports/robot-expressive/report.md")
         .contains("<!-- reprise:stage=evaluate;pipeline=robot-expressive -->"));

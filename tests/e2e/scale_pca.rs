@@ -120,3 +120,30 @@ fn mesh_stages_without_a_rig_say_so() {
     let out = p.reprise(&["run"]).fails(reprise_stagekit::exit::INPUT);
     assert!(out.contains("names no rig"), "{out}");
 }
+
+/// An evaluator that answers NaN made `scale` exit 0 with `weight = NaN`, and after the
+/// evaluator was fixed the next run still said `cached scale`. Now scale fails naming the
+/// evaluator and the pose, writes nothing, and fixing the evaluator is enough.
+#[cfg(unix)]
+#[test]
+fn a_nan_evaluator_fails_scale_and_fixing_it_is_enough() {
+    use std::os::unix::fs::PermissionsExt;
+    let p = project();
+    let rig = env!("CARGO_BIN_EXE_reprise-example-rig");
+    // The evaluator is a script the user edits: the pipeline's command stays the same.
+    let script = |flags: &str| format!("#!/bin/sh\nexec {rig} --vertices 5 {flags} \"$@\"\n");
+    p.write("rig.sh", &script("--nan-after 1"));
+    std::fs::set_permissions(p.path("rig.sh"), std::fs::Permissions::from_mode(0o755)).unwrap();
+    let toml = p.read("pipeline.toml");
+    let start = toml.find("external_rig = [").unwrap();
+    let end = start + toml[start..].find(']').unwrap() + 1;
+    let rig_sh = p.path("rig.sh").display().to_string();
+    p.write("pipeline.toml", &toml.replace(&toml[start..end], &format!("external_rig = [\"{rig_sh}\"]")));
+    let out = p.reprise(&["run", "--to", "scale"]).fails(reprise_stagekit::exit::INPUT);
+    assert!(out.contains("it answered NaN for vertex 0 (x) of a pose") && out.contains("rig.sh"), "{out}");
+    assert!(!p.path("artifacts/linear/scales.parquet").exists(), "nothing written");
+    p.write("rig.sh", &script(""));
+    let out = p.reprise(&["run", "--to", "scale"]).ok();
+    assert!(out.contains("running scale") && !out.contains("cached scale"), "{out}");
+    assert!(scales::read(&p.path("artifacts/linear/scales.parquet")).unwrap().iter().all(|s| s.weight.is_finite()));
+}

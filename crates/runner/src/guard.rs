@@ -89,19 +89,24 @@ pub fn check_existing(
                 });
             }
             let writer = writer_of(&path.abs);
+            // A stage's files name it by its kind (`export-gltf`, from its binary
+            // `reprise-export-gltf`), which the pipeline may call otherwise (`export`).
+            let bin = stage.bin.declared().rsplit('/').next().unwrap_or_default();
+            let kind = bin.strip_prefix("reprise-").unwrap_or(bin);
+            let this_stage = |by: &str| by == stage.name || by == kind;
             let ours = recorded.contains(path.rel.as_str())
                 || stage.allow_overwrite.contains(output)
                 || match &writer {
                     // Written by this stage: of this pipeline, by hand (no pipeline), or of
                     // a pipeline whose directory this one adopts.
-                    Some((by, p)) if *by == stage.name => p.as_deref().is_none_or(|p| p == pipeline.name) || adopt,
+                    Some((by, p)) if this_stage(by) => p.as_deref().is_none_or(|p| p == pipeline.name) || adopt,
                     Some(_) => false,
                     None => !lock_readable && path.abs.starts_with(&pipeline.artifacts.abs),
                 };
             if !ours {
                 let whose = match &writer {
                     Some((by, Some(p))) if p != &pipeline.name => format!("stage `{by}` of pipeline `{p}` wrote it"),
-                    Some((by, _)) if *by != stage.name => format!("stage `{by}` wrote it"),
+                    Some((by, _)) if !this_stage(by) => format!("stage `{by}` wrote it"),
                     _ => format!(
                         "it is not recorded in `{}` and carries no reprise provenance",
                         pipeline.lock_path().display()
@@ -257,6 +262,13 @@ mod tests {
         .unwrap();
         let e = existing(d, "outputs.o = \"b.md\"", &empty, true).unwrap_err().to_string();
         assert!(e.contains("(stage `b` wrote it)"), "{e}");
+        // A stage the pipeline calls `export`, of kind `export-gltf` (its binary's name).
+        let marker = reprise_artifact::provenance::output_marker("export-gltf", Some("t"));
+        std::fs::write(d.join("c2.glb"), format!("<!-- {marker} -->")).unwrap();
+        let text = "[pipeline]\nname = \"t\"\nartifacts = \"art\"\n[stage.export]\nbin = \"reprise-export-gltf\"\n\
+                    inputs.src = \"src.txt\"\noutputs.glb = \"c2.glb\"\n";
+        let p = Pipeline::parse(text, "pipeline.toml", d).unwrap();
+        check_existing(&p, &[&p.stages[0]], &empty, true, false).unwrap();
     }
 
     #[test]
