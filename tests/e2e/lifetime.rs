@@ -136,46 +136,11 @@ fn killed_runner_leaves_no_stage_no_temp_and_a_clean_rerun() {
     p.reprise(&["run", "--to", "pca"]).ok();
 }
 
-/// A two-label curve project whose rig is the reference evaluator, made to hang on its
-/// second batch (the first is the rest pose): `scale` is then busy with a busy evaluator.
+/// The two-label curve project of `scale_pca` whose reference evaluator hangs on its second
+/// batch (the first is the rest pose): `scale` is then busy with a busy evaluator.
 fn project_with_a_hanging_evaluator() -> Project {
-    let p = Project::empty();
-    let mut csv = String::from("clip,frame,k0,k1\n");
-    for f in 0..40 {
-        let t = f64::from(f) / 7.0;
-        csv.push_str(&format!("a,{f},{},{}\nb,{f},{},{}\n", t.sin(), t.cos(), t.cos(), 2.0 * t.sin()));
-    }
-    p.write("curves.csv", &csv);
-    p.write("labels.toml", "[[rule]]\npattern = \"a\"\nlabel = \"a\"\n[[rule]]\npattern = \"b\"\nlabel = \"b\"\n");
     let rig = env!("CARGO_BIN_EXE_reprise-example-rig");
-    p.write(
-        "pipeline.toml",
-        &format!(
-            r#"[pipeline]
-name = "hang"
-[stage.ingest]
-bin = "reprise-ingest"
-inputs.curves = "curves.csv"
-outputs.frames = "artifacts/frames.parquet"
-outputs.controls = "artifacts/controls.parquet"
-outputs.clips = "artifacts/clips.parquet"
-[stage.ingest.params]
-external_rig = ["{rig}", "--vertices", "5", "--hang-after", "1"]
-[stage.label]
-bin = "reprise-label"
-inputs.frames = "artifacts/frames.parquet"
-inputs.labels = "labels.toml"
-outputs.segments = "artifacts/segments.parquet"
-outputs.labeled_frames = "artifacts/labeled_frames.parquet"
-[stage.scale]
-bin = "reprise-scale"
-inputs.labeled_frames = "artifacts/labeled_frames.parquet"
-inputs.controls = "artifacts/controls.parquet"
-outputs.scales = "artifacts/scales.parquet"
-"#
-        ),
-    );
-    p
+    crate::scale_pca::linear_project(&[rig, "--vertices", "5", "--hang-after", "1"])
 }
 
 /// Waits until a rig evaluator (`reprise-example-rig`, whose name the kernel cuts to 15

@@ -9,8 +9,14 @@ use reprise_rig::linear::LinearRig;
 use crate::util::Project;
 
 /// Two labels over four controls; control `k` is constant in label `b`, and the data of
-/// label `a` has rank 2 (c2 = c0 + c1, c3 constant).
+/// label `a` has rank 2 (c2 = c0 + c1, c3 constant). The rig is the reference evaluator.
 fn project() -> Project {
+    let rig = env!("CARGO_BIN_EXE_reprise-example-rig");
+    linear_project(&[rig, "--vertices", "5"])
+}
+
+/// [`project`] evaluated by the external rig `command` (program and arguments).
+pub(crate) fn linear_project(command: &[&str]) -> Project {
     let p = Project::empty();
     let mut csv = String::from("clip,frame,k0,k1,k2,k3\n");
     for f in 0..40 {
@@ -35,7 +41,7 @@ fn project() -> Project {
         .join("\n");
     p.write("curves.csv", &csv);
     p.write("labels.toml", "[[rule]]\npattern = \"a\"\nlabel = \"a\"\n[[rule]]\npattern = \"b\"\nlabel = \"b\"\n");
-    let rig = env!("CARGO_BIN_EXE_reprise-example-rig");
+    let command: Vec<String> = command.iter().map(|c| format!("{c:?}")).collect();
     p.write(
         "pipeline.toml",
         &format!(
@@ -48,7 +54,7 @@ outputs.frames = "artifacts/linear/frames.parquet"
 outputs.controls = "artifacts/linear/controls.parquet"
 outputs.clips = "artifacts/linear/clips.parquet"
 [stage.ingest.params]
-external_rig = ["{rig}", "--vertices", "5"]
+external_rig = [{}]
 [stage.label]
 bin = "reprise-label"
 inputs.frames = "artifacts/linear/frames.parquet"
@@ -72,7 +78,8 @@ outputs.errors = "artifacts/linear/pca_errors.parquet"
 min_components = 1
 variance = 0.999999
 write_unscaled = true
-"#
+"#,
+            command.join(", ")
         ),
     );
     p
@@ -128,21 +135,18 @@ fn mesh_stages_without_a_rig_say_so() {
 #[test]
 fn a_nan_evaluator_fails_scale_and_fixing_it_is_enough() {
     use std::os::unix::fs::PermissionsExt;
-    let p = project();
     let rig = env!("CARGO_BIN_EXE_reprise-example-rig");
     // The evaluator is a script the user edits: the pipeline's command stays the same.
     let script = |flags: &str| format!("#!/bin/sh\nexec {rig} --vertices 5 {flags} \"$@\"\n");
-    p.write("rig.sh", &script("--nan-after 1"));
-    std::fs::set_permissions(p.path("rig.sh"), std::fs::Permissions::from_mode(0o755)).unwrap();
-    let toml = p.read("pipeline.toml");
-    let start = toml.find("external_rig = [").unwrap();
-    let end = start + toml[start..].find(']').unwrap() + 1;
-    let rig_sh = p.path("rig.sh").display().to_string();
-    p.write("pipeline.toml", &toml.replace(&toml[start..end], &format!("external_rig = [\"{rig_sh}\"]")));
+    let dir = tempfile::tempdir().unwrap();
+    let rig_sh = dir.path().join("rig.sh");
+    std::fs::write(&rig_sh, script("--nan-after 1")).unwrap();
+    std::fs::set_permissions(&rig_sh, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let p = linear_project(&[rig_sh.to_str().unwrap()]);
     let out = p.reprise(&["run", "--to", "scale"]).fails(reprise_stagekit::exit::INPUT);
     assert!(out.contains("it answered NaN for vertex 0 (x) of a pose") && out.contains("rig.sh"), "{out}");
     assert!(!p.path("artifacts/linear/scales.parquet").exists(), "nothing written");
-    p.write("rig.sh", &script(""));
+    std::fs::write(&rig_sh, script("")).unwrap();
     let out = p.reprise(&["run", "--to", "scale"]).ok();
     assert!(out.contains("running scale") && !out.contains("cached scale"), "{out}");
     assert!(scales::read(&p.path("artifacts/linear/scales.parquet")).unwrap().iter().all(|s| s.weight.is_finite()));

@@ -135,6 +135,10 @@ const MARKER_WINDOW: u64 = 64 << 10;
 /// [`output_marker`]: reprise_artifact::provenance::output_marker
 pub fn writer_of(path: &Path) -> Option<(String, Option<String>)> {
     use reprise_artifact::provenance::{KEY_PIPELINE, KEY_STAGE};
+    // Only a regular file says anything (opening a FIFO would block).
+    if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        return None;
+    }
     if let Some(meta) = parquet_metadata(path) {
         let get = |key: &str| meta.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone());
         return get(KEY_STAGE).map(|stage| (stage, get(KEY_PIPELINE)));
@@ -169,14 +173,13 @@ fn marker_text(path: &Path) -> Option<String> {
     let mut tail = Vec::new();
     if len > MARKER_WINDOW {
         file.seek(SeekFrom::Start(len - MARKER_WINDOW)).ok()?;
-        file.take(MARKER_WINDOW).read_to_end(&mut tail).ok()?;
+        (&mut file).take(MARKER_WINDOW).read_to_end(&mut tail).ok()?;
     }
     let mut json = Vec::new();
     if head.starts_with(b"glTF") && head.len() >= 20 {
         let chunk = u64::from(u32::from_le_bytes(head[12..16].try_into().ok()?)).min(64 << 20);
-        let mut file = std::fs::File::open(path).ok()?;
         file.seek(SeekFrom::Start(20)).ok()?;
-        file.take(chunk).read_to_end(&mut json).ok()?;
+        (&mut file).take(chunk).read_to_end(&mut json).ok()?;
     }
     Some([head, tail, json].iter().map(|b| String::from_utf8_lossy(b).into_owned()).collect::<Vec<_>>().join("\n"))
 }
@@ -269,6 +272,13 @@ mod tests {
                     inputs.src = \"src.txt\"\noutputs.glb = \"c2.glb\"\n";
         let p = Pipeline::parse(text, "pipeline.toml", d).unwrap();
         check_existing(&p, &[&p.stages[0]], &empty, true, false).unwrap();
+        // A FIFO in an output's place says nothing (and is not opened: that would block).
+        #[cfg(unix)]
+        {
+            assert!(std::process::Command::new("mkfifo").arg(d.join("fifo")).status().unwrap().success());
+            assert_eq!(writer_of(&d.join("fifo")), None);
+            assert!(existing(d, "outputs.o = \"fifo\"", &empty, true).is_err());
+        }
     }
 
     #[test]
