@@ -16,12 +16,20 @@ pub struct SystemDef {
 }
 
 /// Every system, the method under test first: every other system is paired with it.
-pub const SYSTEMS: [SystemDef; 4] = [
+pub const SYSTEMS: [SystemDef; 5] = [
     SystemDef {
         id: "reprise",
         shown: "reprise",
         seeded: true,
-        about: "one GPLVM per label, bridges between them, a particle driven by IDLE / TRANSITION commands",
+        about: "one GPLVM per label, bridges between them, a particle driven by IDLE / TRANSITION commands, \
+                with every improvement of the ablation on",
+    },
+    SystemDef {
+        id: "reprise-paper",
+        shown: "reprise (paper)",
+        seeded: true,
+        about: "the same models and bridges, the particle driven as the paper describes (fixed random force, \
+                the nearest bridge, idling where it lands)",
     },
     SystemDef {
         id: "motion-graphs",
@@ -43,9 +51,35 @@ pub const SYSTEMS: [SystemDef; 4] = [
     },
 ];
 
-/// The system with id `id`, if the benchmark knows it.
+/// The ablation: the paper's method with one improvement on (`reprise-paper-<name>`, one
+/// per improvement of the synthesis engine's `Method::IMPROVEMENTS`, in its order). They
+/// answer the same requests and are measured by the same code, and are shown in the
+/// ablation table beside `reprise-paper` (none on) and `reprise` (all on), not in the
+/// verdicts.
+pub const ABLATION: [SystemDef; 3] = [
+    SystemDef {
+        id: "reprise-paper-live-idle",
+        shown: "paper + live-idle",
+        seeded: false,
+        about: "the paper's method, the idle's random force and drag set from each label's training frames",
+    },
+    SystemDef {
+        id: "reprise-paper-landing-choice",
+        shown: "paper + landing-choice",
+        seeded: false,
+        about: "the paper's method, TRANSITION taking the bridge of least travel-plus-landing time",
+    },
+    SystemDef {
+        id: "reprise-paper-settle",
+        shown: "paper + settle",
+        seeded: false,
+        about: "the paper's method, the particle moving to a training pose of the target after the switch",
+    },
+];
+
+/// The system with id `id`, if the benchmark knows it (a compared system or an ablation).
 pub fn find(id: &str) -> Option<&'static SystemDef> {
-    SYSTEMS.iter().find(|s| s.id == id)
+    SYSTEMS.iter().chain(&ABLATION).find(|s| s.id == id)
 }
 
 /// How the report names system `id` (the id itself for a system it does not know).
@@ -60,8 +94,9 @@ mod tests {
     #[test]
     fn ids_and_names_are_unique_and_reprise_comes_first() {
         assert_eq!(SYSTEMS[0].id, "reprise");
-        for (i, a) in SYSTEMS.iter().enumerate() {
-            for b in &SYSTEMS[i + 1..] {
+        let all: Vec<&SystemDef> = SYSTEMS.iter().chain(&ABLATION).collect();
+        for (i, a) in all.iter().enumerate() {
+            for b in &all[i + 1..] {
                 assert!(a.id != b.id && a.shown != b.shown, "{a:?} {b:?}");
             }
         }

@@ -6,7 +6,7 @@
 
 use reprise_artifact::{bridges, gplvm};
 use reprise_stagekit::{StageError, StageResult};
-use reprise_synth_engine::engine::{Library, Link, TrainingFrame};
+use reprise_synth_engine::engine::{Library, Link, Settings, TrainingFrame};
 
 /// What the synthesis engine's [`Library`] borrows: the label models, each model's training
 /// frames (from `gplvm_latents`, in the model's point order) and the bridges.
@@ -60,13 +60,13 @@ impl LibraryParts {
             .collect::<StageResult<_>>()?;
         let links = bridges::read(bridges_path)?
             .into_iter()
-            .map(|b| Link { from: b.from, to: b.to, x1: b.x1, x2: b.x2, distance: b.rig_distance })
+            .map(|b| Link { from: b.from, to: b.to, x1: b.x1, x2: b.x2, distance: b.rig_distance, landing: None })
             .collect();
         Ok(Self { models, frames, links })
     }
 
-    /// The engine's view.
-    pub fn library(&self) -> Library<'_> {
-        Library { models: self.models.models.iter().collect(), frames: self.frames.clone(), links: self.links.clone() }
+    /// The engine's view, its landings found and idle dynamics calibrated under `set`.
+    pub fn library(&self, set: &Settings) -> Library<'_> {
+        Library::new(self.models.models.iter().collect(), self.frames.clone(), self.links.clone(), set)
     }
 }

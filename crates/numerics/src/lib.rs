@@ -6,6 +6,7 @@
 //! - [`gplvm`]: the RBF + white GPLVM likelihood, dynamics and connectivity priors, their
 //!   gradients, and prediction; [`scg`]: the Netlab scaled conjugate gradient optimiser;
 //!   [`lbfgs`]: limited-memory BFGS; [`optim`]: their shared convergence rule and results.
+//! - [`stats`], [`vector`]: column statistics and Euclidean lengths.
 #![warn(missing_docs)]
 
 pub mod gplvm;
@@ -15,3 +16,4 @@ pub mod pca;
 pub mod scaling;
 pub mod scg;
 pub mod stats;
+pub mod vector;

@@ -36,7 +36,9 @@
 //! on fast training frames in a disc small enough to track them).
 
 use reprise_numerics::gplvm::LatentModel;
+use reprise_numerics::vector::{dist, norm};
 
+use crate::method::{landing, training_means, BridgeChoice, Dynamics, IdleRule, Landing, Method};
 use crate::particle::{step_frame, Leg, ParticleParams, State};
 use crate::path::{graph_path, resample, EdgeCost};
 use crate::random::RandomForce;
@@ -119,6 +121,8 @@ pub struct Link {
     pub x2: Vec<f64>,
     /// Rig distance of the two poses.
     pub distance: f64,
+    /// Where it lands in `to` ([`Library::new`] finds it).
+    pub landing: Option<Landing>,
 }
 
 /// The models, their training frames (same order) and the bridges.
@@ -130,6 +134,72 @@ pub struct Library<'a> {
     pub frames: Vec<Vec<TrainingFrame>>,
     /// Bridges.
     pub links: Vec<Link>,
+    /// Per model, its idle dynamics from its training frames (`None`: too few frames, or
+    /// no motion; the fixed settings then apply).
+    pub dynamics: Vec<Option<Dynamics>>,
+}
+
+impl<'a> Library<'a> {
+    /// A library: each bridge's landing found in its target model, and each model's idle
+    /// [`Dynamics`] calibrated under `set` (see [`crate::method`]).
+    pub fn new(
+        models: Vec<&'a LatentModel>,
+        frames: Vec<Vec<TrainingFrame>>,
+        mut links: Vec<Link>,
+        set: &Settings,
+    ) -> Self {
+        let means: Vec<Vec<f64>> = models.iter().map(|m| training_means(m)).collect();
+        for l in &mut links {
+            if let Some(b) = models.iter().position(|m| m.label == l.to) {
+                l.landing = landing(models[b], &means[b], &l.x2);
+            }
+        }
+        let dynamics = models.iter().zip(&frames).map(|(m, f)| calibrate(m, f, set)).collect();
+        Self { models, frames, links, dynamics }
+    }
+}
+
+/// A model's [`Dynamics`]: the closed-form rule, then IDLE simulated from
+/// [`crate::method::CALIBRATION_STARTS`] training latents and $\alpha$ scaled until the
+/// mean latent speed (after the first half-second) matches the training speed.
+fn calibrate(model: &LatentModel, frames: &[TrainingFrame], set: &Settings) -> Option<Dynamics> {
+    use crate::method::{CALIBRATION_ROUNDS, CALIBRATION_SECONDS, CALIBRATION_STARTS};
+    let mut dynamics = Dynamics::from_training(frames, set.fps, set.random_gamma)?;
+    let set = Settings { method: Method { idle: IdleRule::FromData, ..set.method }, ..*set };
+    let skip = (0.5 * set.fps).round() as usize;
+    let starts: Vec<usize> = (0..CALIBRATION_STARTS).map(|i| i * frames.len() / CALIBRATION_STARTS).collect();
+    for _ in 0..CALIBRATION_ROUNDS {
+        let lib = Library {
+            models: vec![model],
+            frames: vec![frames.to_vec()],
+            links: vec![],
+            dynamics: vec![Some(dynamics)],
+        };
+        let (mut sum, mut count) = (0.0, 0usize);
+        for (i, &s) in starts.iter().enumerate() {
+            let start = crate::script::Start {
+                label: model.label.clone(),
+                segment: None,
+                clip: None,
+                frame: None,
+                latent: Some(frames[s].x.clone()),
+            };
+            let idle = Command::Idle { duration: CALIBRATION_SECONDS, radius: None, poses: vec![], hover: None };
+            let script = Script { name: None, seed: 0x6361_6c69_6272 + i as u64, start, commands: vec![idle] };
+            let Ok(out) = run(&lib, &script, &set) else { continue };
+            for w in out[skip.min(out.len())..].windows(2) {
+                sum += dist(&w[1].x, &w[0].x) * set.fps;
+                count += 1;
+            }
+        }
+        let measured = sum / count.max(1) as f64;
+        if !(measured > 0.0 && measured.is_finite()) {
+            break;
+        }
+        let factor = (dynamics.training_speed / measured).powi(2).clamp(1.0 / 16.0, 16.0);
+        dynamics.random_variance *= factor;
+    }
+    Some(dynamics)
 }
 
 /// Engine settings.
@@ -166,10 +236,19 @@ pub struct Settings {
     pub timeout_seconds: f64,
     /// Default blend length (frames).
     pub blend_frames: usize,
-    /// MOVE graph: neighbours per point and cost exponent.
+    /// MOVE graph: neighbours per point (0: the paper's complete graph).
     pub graph_k: usize,
     /// Cost $\lVert\Delta\rVert^p$ (or the inverse, see [`EdgeCost`]).
     pub graph_cost: EdgeCost,
+    /// The improvements over the paper ([`Method::TUNED`] by default).
+    pub method: Method,
+}
+
+impl Settings {
+    /// The paper's method: every improvement of [`Method`] off.
+    pub fn paper() -> Self {
+        Self { method: Method::PAPER, ..Self::default() }
+    }
 }
 
 impl Default for Settings {
@@ -190,8 +269,9 @@ impl Default for Settings {
             speed_factor: 1.0,
             timeout_seconds: 10.0,
             blend_frames: 12,
-            graph_k: 8,
+            graph_k: 0,
             graph_cost: EdgeCost::Power(4.0),
+            method: Method::TUNED,
         }
     }
 }
@@ -298,6 +378,14 @@ impl<'l, 'a> Run<'l, 'a> {
             })
     }
 
+    /// Model `model`'s random-force variance and drag under the method's idle rule.
+    fn dynamics(&self, model: usize) -> (f64, f64) {
+        match (self.set.method.idle, self.lib.dynamics.get(model).copied().flatten()) {
+            (IdleRule::FromData, Some(d)) => (d.random_variance, d.drag),
+            _ => (self.set.random_variance, self.set.drag),
+        }
+    }
+
     fn controls(&self, model: usize, x: &[f64]) -> Vec<f64> {
         let m = self.lib.models[model];
         let mut p = vec![0.0; m.controls()];
@@ -313,6 +401,8 @@ impl<'l, 'a> Run<'l, 'a> {
         let dt = 1.0 / set.fps;
         let t0 = self.out.len() as f64 * dt;
         let random = &self.random;
+        let (alpha, drag) = self.dynamics(stream.model);
+        let amplitude = alpha.max(0.0).sqrt();
         let mut grad = vec![0.0; m.q()];
         let mut rf = vec![0.0; m.q()];
         let mut force = |x: &[f64], v: &[f64], t: f64, out: &mut [f64]| {
@@ -322,7 +412,7 @@ impl<'l, 'a> Run<'l, 'a> {
             random.at(t + time_offset, &mut rf);
             for k in 0..out.len() {
                 let dens = if norm > 1e-300 && s.is_finite() { s * grad[k] / norm } else { 0.0 };
-                out[k] = dens + rf[k] - set.drag * v[k];
+                out[k] = dens + amplitude * rf[k] - drag * v[k];
             }
         };
         let prev = std::mem::replace(&mut stream.target, next.to_vec());
@@ -430,19 +520,26 @@ impl<'l, 'a> Run<'l, 'a> {
         }
     }
 
-    fn best_link(&self, from: &str, to: &str) -> Option<&Link> {
-        self.lib
-            .links
-            .iter()
-            .filter(|l| l.from == from && l.to == to)
-            .min_by(|a, b| dist(&a.x1, &self.cur.state.x).total_cmp(&dist(&b.x1, &self.cur.state.x)))
+    /// The bridge from the current model to model `to` the method chooses: the nearest
+    /// $x_1$, or the least travel-plus-landing time (see [`crate::method`]).
+    fn best_link(&self, to: usize) -> Option<&Link> {
+        let (from, target) = (self.label(), self.lib.models[to].label.as_str());
+        let x = &self.cur.state.x;
+        let cost = |l: &Link| match self.set.method.bridge_choice {
+            BridgeChoice::Nearest => dist(&l.x1, x),
+            BridgeChoice::TravelAndLanding => {
+                let land = l.landing.as_ref().map_or(0.0, |g| g.latent_distance);
+                dist(&l.x1, x) / self.speed[self.cur.model] + land / self.speed[to]
+            }
+        };
+        self.lib.links.iter().filter(|l| l.from == from && l.to == target).min_by(|a, b| cost(a).total_cmp(&cost(b)))
     }
 
-    /// Reach the nearest bridge to `to`, then blend the two live streams over `blend`
-    /// frames while both particles idle at the bridge's ends.
-    fn switch(&mut self, to: usize, blend: usize) -> Result<(), SynthError> {
+    /// Reach the chosen bridge to `to`, then blend the two live streams over `blend`
+    /// frames while both particles idle at the bridge's ends; returns the bridge.
+    fn switch(&mut self, to: usize, blend: usize) -> Result<Link, SynthError> {
         let (from, target) = (self.label().to_string(), self.lib.models[to].label.clone());
-        let link = self.best_link(&from, &target).cloned().ok_or(SynthError::NoBridge { from, to: target.clone() })?;
+        let link = self.best_link(to).cloned().ok_or(SynthError::NoBridge { from, to: target.clone() })?;
         let r = self.set.tight_radius;
         self.go(&link.x1, PathKind::Straight, r, None, &format!("the bridge to `{target}`"))?;
         let mut old = self.cur.clone();
@@ -457,7 +554,7 @@ impl<'l, 'a> Run<'l, 'a> {
             self.push(a.iter().zip(&b).map(|(a, b)| (1.0 - w) * a + w * b).collect());
         }
         self.cur = new;
-        Ok(())
+        Ok(link)
     }
 
     /// The route to `to`: direct, or through the third label with the closest bridges.
@@ -514,8 +611,13 @@ impl<'l, 'a> Run<'l, 'a> {
             Command::Transition { to, blend_frames } => {
                 let to = self.model_index(to)?;
                 if to != self.cur.model {
+                    let mut last = None;
                     for hop in self.route(to)? {
-                        self.switch(hop, blend_frames.unwrap_or(self.set.blend_frames).max(1))?;
+                        last = Some(self.switch(hop, blend_frames.unwrap_or(self.set.blend_frames).max(1))?);
+                    }
+                    if let Some(landing) = last.and_then(|l| l.landing).filter(|_| self.set.method.settle) {
+                        let what = "the target label's training pose nearest the landing";
+                        self.go(&landing.x, PathKind::Straight, self.set.radius, None, what)?;
                     }
                 }
             }
@@ -558,14 +660,6 @@ impl<'l, 'a> Run<'l, 'a> {
     }
 }
 
-fn norm(a: &[f64]) -> f64 {
-    a.iter().map(|v| v * v).sum::<f64>().sqrt()
-}
-
-fn dist(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
-}
-
 /// Runs a script: one frame per $1/\text{fps}$ seconds from its start pose.
 pub fn run(lib: &Library<'_>, script: &Script, set: &Settings) -> Result<Vec<Frame>, SynthError> {
     let q = lib.models.first().map_or(0, |m| m.q());
@@ -580,7 +674,7 @@ pub fn run(lib: &Library<'_>, script: &Script, set: &Settings) -> Result<Vec<Fra
         speed,
         cur: Stream { model: 0, state: State::at_rest(&vec![0.0; q]), target: vec![0.0; q] },
         out: Vec::new(),
-        random: RandomForce::new(q, set.random_variance, set.random_gamma, set.random_features, script.seed),
+        random: RandomForce::new(q, 1.0, set.random_gamma, set.random_features, script.seed),
         command: 0,
     };
     run.cur.model = run.model_index(&script.start.label)?;
@@ -635,12 +729,12 @@ mod tests {
         let (a, fa) = model("a", 0.0);
         let (b, fb) = model("b", 0.7);
         let (c, fc) = model("c", -0.4);
-        let lib = Library { models: vec![&a, &b, &c], frames: vec![fa, fb, fc], links };
+        let lib = Library::new(vec![&a, &b, &c], vec![fa, fb, fc], links, &Settings::paper());
         f(&lib)
     }
 
     fn link(from: &str, to: &str, x1: [f64; 2], x2: [f64; 2]) -> Link {
-        Link { from: from.into(), to: to.into(), x1: x1.to_vec(), x2: x2.to_vec(), distance: 0.1 }
+        Link { from: from.into(), to: to.into(), x1: x1.to_vec(), x2: x2.to_vec(), distance: 0.1, landing: None }
     }
 
     /// The same seed gives identical frames; another seed differs.
@@ -648,7 +742,7 @@ mod tests {
     fn deterministic_per_seed() {
         let cmds = vec![Command::Idle { duration: 2.0, radius: Some(0.3), poses: vec![], hover: None }];
         with_lib(vec![], |lib| {
-            let s = Settings::default();
+            let s = Settings::paper();
             let a = run(lib, &script(cmds.clone(), 4), &s).unwrap();
             let b = run(lib, &script(cmds.clone(), 4), &s).unwrap();
             let c = run(lib, &script(cmds, 5), &s).unwrap();
@@ -663,7 +757,7 @@ mod tests {
     fn idle_stays_near_its_pose() {
         let cmds = vec![Command::Idle { duration: 4.0, radius: Some(0.2), poses: vec![], hover: None }];
         with_lib(vec![], |lib| {
-            let out = run(lib, &script(cmds, 1), &Settings::default()).unwrap();
+            let out = run(lib, &script(cmds, 1), &Settings::paper()).unwrap();
             let x0 = [1.5, 0.0];
             let worst = out[24..].iter().map(|f| dist(&f.x, &x0)).fold(0.0, f64::max);
             assert!(worst < 0.2 * 1.25, "strays {worst}");
@@ -682,11 +776,11 @@ mod tests {
             Command::Idle { duration: 1.0, radius: None, poses: vec![], hover: None },
         ];
         with_lib(links, |lib| {
-            let out = run(lib, &script(cmds, 2), &Settings::default()).unwrap();
+            let out = run(lib, &script(cmds, 2), &Settings::paper()).unwrap();
             let sw = out.iter().position(|f| f.model == 1).expect("switched");
             assert!(out[..sw].iter().all(|f| f.model == 0) && out[sw..].iter().all(|f| f.model == 1));
             let arrival = ARRIVAL_SLACK
-                * Settings::default().tight_radius.max(typical_speed(&lib.frames[0], 24.0).unwrap() / 24.0);
+                * Settings::paper().tight_radius.max(typical_speed(&lib.frames[0], 24.0).unwrap() / 24.0);
             assert!(dist(&out[sw - 1].x, &[0.8, 1.27]) <= arrival, "switches at the bridge: {:?}", out[sw - 1].x);
             let step = |i: usize| dist(&out[i].controls, &out[i - 1].controls);
             let across = (sw..sw + 12).map(step).fold(0.0, f64::max);
@@ -705,7 +799,7 @@ mod tests {
     /// the latency grows with the latent distance (by about distance / speed).
     #[test]
     fn latency_grows_with_the_distance_to_the_bridge() {
-        let set = Settings { speed: Some(1.0), random_variance: 0.0, ..Default::default() };
+        let set = Settings { speed: Some(1.0), random_variance: 0.0, ..Settings::paper() };
         let cmds = vec![Command::Transition { to: "b".into(), blend_frames: Some(12) }];
         // The start frame is at (1.5, 0); bridges at growing distances along the arc.
         let mut last = 0;
@@ -735,7 +829,7 @@ mod tests {
     /// and no faster than the speed limit — with the random force on.
     #[test]
     fn the_switch_happens_on_arrival() {
-        let set = Settings { speed: Some(1.5), ..Default::default() };
+        let set = Settings { speed: Some(1.5), ..Settings::paper() };
         let cmds = vec![Command::Transition { to: "b".into(), blend_frames: Some(12) }];
         for seed in 0..8 {
             let x1 = [(25.0f64 * 0.08).cos() * 1.5, (25.0f64 * 0.08).sin() * 1.5];
@@ -756,7 +850,7 @@ mod tests {
     /// by their offset (≈ 0.7), and a blend from a frozen pose would kink its velocity.
     #[test]
     fn the_blend_is_smooth_between_live_streams() {
-        let set = Settings { speed: Some(1.5), ..Default::default() };
+        let set = Settings { speed: Some(1.5), ..Settings::paper() };
         let x1 = [0.8, 1.27];
         let cmds = vec![
             Command::Idle { duration: 0.5, radius: None, poses: vec![], hover: None },
@@ -804,7 +898,7 @@ mod tests {
     /// it takes longer than the straight chord; an unreachable target times out clearly.
     #[test]
     fn move_takes_as_long_as_its_path() {
-        let set = Settings { speed: Some(1.0), random_variance: 0.0, ..Default::default() };
+        let set = Settings { speed: Some(1.0), random_variance: 0.0, ..Settings::paper() };
         let to = Pose { segment: Some(1), clip: None, frame: Some(19), latent: None };
         let frames = |path: PathKind| {
             let cmds = vec![Command::Move { to: to.clone(), duration: 0.1, path, radius: Some(0.1) }];
@@ -841,16 +935,73 @@ mod tests {
         let links = vec![link("a", "c", [1.5, 0.0], [1.5, 0.0]), link("c", "b", [1.0, 1.1], [1.0, 1.1])];
         let cmds = vec![Command::Transition { to: "b".into(), blend_frames: None }];
         with_lib(links, |lib| {
-            let out = run(lib, &script(cmds.clone(), 0), &Settings::default()).unwrap();
+            let out = run(lib, &script(cmds.clone(), 0), &Settings::paper()).unwrap();
             let models: Vec<usize> = out.iter().map(|f| f.model).collect();
             assert!(models.contains(&2) && models.last() == Some(&1), "{models:?}");
         });
         with_lib(vec![], |lib| {
-            let e = run(lib, &script(cmds, 0), &Settings::default()).unwrap_err();
+            let e = run(lib, &script(cmds, 0), &Settings::paper()).unwrap_err();
             assert_eq!(e, SynthError::NoBridge { from: "a".into(), to: "b".into() });
             let bad = vec![Command::Transition { to: "zzz".into(), blend_frames: None }];
-            assert!(run(lib, &script(bad, 0), &Settings::default()).unwrap_err().to_string().contains("a, b, c"));
+            assert!(run(lib, &script(bad, 0), &Settings::paper()).unwrap_err().to_string().contains("a, b, c"));
         });
+    }
+
+    /// Mean latent speed of frames `from..` (latent units per second).
+    fn mean_speed(out: &[Frame], from: usize) -> f64 {
+        let w: Vec<f64> = out[from..].windows(2).map(|w| dist(&w[1].x, &w[0].x) * 24.0).collect();
+        w.iter().sum::<f64>() / w.len() as f64
+    }
+
+    /// With `live-idle` the idling particle moves about as fast as the label's training
+    /// frames (0.12 latent units a frame here, 2.9 /s) over several seeds; the paper's fixed
+    /// force and drag leave it far slower.
+    #[test]
+    fn a_live_idle_moves_as_fast_as_the_training_frames() {
+        let idle = vec![Command::Idle { duration: 8.0, radius: Some(0.5), poses: vec![], hover: None }];
+        with_lib(vec![], |lib| {
+            let want = lib.dynamics[0].expect("the arc moves").training_speed;
+            let tuned = Settings { method: Method::TUNED, ..Settings::paper() };
+            let lib = Library::new(lib.models.clone(), lib.frames.clone(), vec![], &tuned);
+            let speeds: Vec<f64> =
+                (0..6).map(|seed| mean_speed(&run(&lib, &script(idle.clone(), seed), &tuned).unwrap(), 12)).collect();
+            let mean = speeds.iter().sum::<f64>() / speeds.len() as f64;
+            assert!((0.6 * want..1.4 * want).contains(&mean), "tuned idle {mean:.3} vs training {want:.3}: {speeds:?}");
+            let paper = mean_speed(&run(&lib, &script(idle.clone(), 0), &Settings::paper()).unwrap(), 12);
+            assert!(paper < 0.5 * want, "the paper's idle {paper:.3} vs training {want:.3}");
+        });
+    }
+
+    /// Two bridges to b: the nearer one lands at b's centre, far from every b training
+    /// latent; the farther one lands on b's arc. The paper takes the nearer, `landing-choice`
+    /// the one whose travel plus landing is shorter; `settle` then brings the particle to a
+    /// b training latent, where without it the particle stays at the landing.
+    #[test]
+    fn landing_choice_and_settle_end_where_the_target_label_lives() {
+        let near = link("a", "b", [1.45, 0.2], [0.0, 0.0]);
+        let far = link("a", "b", [1.2, 0.9], [1.2, 0.9]);
+        let cmds = vec![
+            Command::Transition { to: "b".into(), blend_frames: Some(6) },
+            Command::Idle { duration: 1.0, radius: None, poses: vec![], hover: None },
+        ];
+        let end_of = |method: Method| {
+            let set = Settings { method, speed: Some(2.0), ..Settings::paper() };
+            with_lib(vec![], |lib| {
+                let lib = Library::new(lib.models.clone(), lib.frames.clone(), vec![near.clone(), far.clone()], &set);
+                let out = run(&lib, &script(cmds.clone(), 1), &set).unwrap();
+                let sw = out.iter().position(|f| f.model == 1).unwrap();
+                let arc = |x: &[f64]| lib.frames[1].iter().map(|f| dist(&f.x, x)).fold(f64::INFINITY, f64::min);
+                (out[sw].x.clone(), arc(&out.last().unwrap().x))
+            })
+        };
+        let (paper_switch, paper_end) = end_of(Method::PAPER);
+        assert!(dist(&paper_switch, &[0.0, 0.0]) < 0.3, "the paper lands at the nearest bridge's end {paper_switch:?}");
+        assert!(paper_end > 0.8, "and idles there, {paper_end:.2} from b's latents");
+        let choice = Method { bridge_choice: BridgeChoice::TravelAndLanding, ..Method::PAPER };
+        let (choice_switch, _) = end_of(choice);
+        assert!(dist(&choice_switch, &[1.2, 0.9]) < 0.3, "landing-choice takes the other {choice_switch:?}");
+        let (_, settled) = end_of(Method { settle: true, ..Method::PAPER });
+        assert!(settled < 0.25 * 1.25, "settle ends {settled:.2} from b's latents");
     }
 
     /// PLAY follows the segment's embedding: the controls match the model's reconstruction
@@ -859,7 +1010,7 @@ mod tests {
     fn play_reproduces_its_segment() {
         let cmds = vec![Command::Play { segment: Some(1), clip: None }];
         with_lib(vec![], |lib| {
-            let out = run(lib, &script(cmds, 3), &Settings { random_variance: 0.0, ..Default::default() }).unwrap();
+            let out = run(lib, &script(cmds, 3), &Settings { random_variance: 0.0, ..Settings::paper() }).unwrap();
             let m = lib.models[0];
             let seg: Vec<&TrainingFrame> = lib.frames[0].iter().filter(|f| f.segment == 1).collect();
             let played = &out[out.len() - (seg.len() - 1)..];

@@ -5,6 +5,7 @@
 #![warn(missing_docs)]
 
 pub mod engine;
+pub mod method;
 pub mod particle;
 pub mod path;
 pub mod random;

@@ -1,8 +1,10 @@
 //! Paths through a latent space for the MOVE command (§5.3): a straight line, or the
 //! shortest path through the training points, resampled to constant speed.
 //!
-//! The graph (method.md §0 on the paper's ambiguity): the $k$ nearest training points of
-//! each point are joined, and Dijkstra minimises the sum of edge **costs**. With
+//! The graph (method.md §0 on the paper's ambiguity): by default the paper's **complete**
+//! graph over the training points ($k = 0$; Dijkstra over the implicit $O(N^2)$ edges in
+//! $O(N)$ memory, $O(N^2)$ time per MOVE), or the $k$ nearest training points of each
+//! point joined (symmetrised); Dijkstra minimises the sum of edge **costs**. With
 //! [`EdgeCost::Power`] the cost is $\lVert x_i - x_j\rVert^p$ (the default, $p = 4$:
 //! many short hops through the data are cheaper than one long jump); with
 //! [`EdgeCost::InversePower`] it is the paper's literal "weight"
@@ -12,6 +14,8 @@
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
+use reprise_numerics::vector::dist;
+
 /// How an edge of the training-point graph costs.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum EdgeCost {
@@ -19,10 +23,6 @@ pub enum EdgeCost {
     Power(f64),
     /// $\lVert\Delta\rVert^{-p}$ (the paper's weight read as a cost).
     InversePower(f64),
-}
-
-fn dist(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
 }
 
 /// The index of the training point (row-major `N × q`) nearest `x`.
@@ -51,6 +51,72 @@ impl Ord for Item {
 pub fn graph_path(points: &[f64], q: usize, from: &[f64], to: &[f64], k: usize, cost: EdgeCost) -> Vec<Vec<f64>> {
     let n = points.len() / q;
     let pt = |i: usize| &points[i * q..(i + 1) * q];
+    let (s, t) = (nearest(points, q, from), nearest(points, q, to));
+    let edge = |dd: f64| match cost {
+        EdgeCost::Power(p) => dd.powf(p),
+        EdgeCost::InversePower(p) => dd.max(1e-12).powf(-p),
+    };
+    let (best, prev) = if k == 0 || k + 1 >= n {
+        complete_dijkstra(n, s, t, |i, j| edge(dist(pt(i), pt(j))))
+    } else {
+        knn_dijkstra(points, q, k, s, t, edge)
+    };
+    let mut out = vec![from.to_vec()];
+    if best[t].is_finite() {
+        let mut chain = vec![t];
+        while let Some(&last) = chain.last() {
+            if last == s {
+                break;
+            }
+            chain.push(prev[last]);
+        }
+        out.extend(chain.into_iter().rev().map(|i| pt(i).to_vec()));
+    }
+    out.push(to.to_vec());
+    out
+}
+
+/// Dijkstra from `s` to `t` on the complete graph with edge cost `w(i, j)`: the array
+/// form (no heap), $O(N^2)$ time and $O(N)$ memory. Returns (cost to each settled node,
+/// predecessor).
+fn complete_dijkstra(n: usize, s: usize, t: usize, w: impl Fn(usize, usize) -> f64) -> (Vec<f64>, Vec<usize>) {
+    let mut best = vec![f64::INFINITY; n];
+    let mut prev = vec![usize::MAX; n];
+    let mut done = vec![false; n];
+    best[s] = 0.0;
+    loop {
+        let Some(i) = (0..n).filter(|&i| !done[i] && best[i].is_finite()).min_by(|&a, &b| best[a].total_cmp(&best[b]))
+        else {
+            break;
+        };
+        done[i] = true;
+        if i == t {
+            break;
+        }
+        for j in 0..n {
+            if !done[j] {
+                let c = best[i] + w(i, j);
+                if c < best[j] {
+                    best[j] = c;
+                    prev[j] = i;
+                }
+            }
+        }
+    }
+    (best, prev)
+}
+
+/// Dijkstra from `s` to `t` on the symmetrised `k`-nearest-neighbour graph.
+fn knn_dijkstra(
+    points: &[f64],
+    q: usize,
+    k: usize,
+    s: usize,
+    t: usize,
+    edge: impl Fn(f64) -> f64,
+) -> (Vec<f64>, Vec<usize>) {
+    let n = points.len() / q;
+    let pt = |i: usize| &points[i * q..(i + 1) * q];
     let mut adj: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
     for i in 0..n {
         let mut d: Vec<(f64, usize)> = (0..n).filter(|&j| j != i).map(|j| (dist(pt(i), pt(j)), j)).collect();
@@ -59,15 +125,11 @@ pub fn graph_path(points: &[f64], q: usize, from: &[f64], to: &[f64], k: usize, 
             d.select_nth_unstable_by(kk - 1, |a, b| a.0.total_cmp(&b.0));
         }
         for &(dd, j) in &d[..kk] {
-            let c = match cost {
-                EdgeCost::Power(p) => dd.powf(p),
-                EdgeCost::InversePower(p) => dd.max(1e-12).powf(-p),
-            };
+            let c = edge(dd);
             adj[i].push((j, c));
             adj[j].push((i, c));
         }
     }
-    let (s, t) = (nearest(points, q, from), nearest(points, q, to));
     let mut best = vec![f64::INFINITY; n];
     let mut prev = vec![usize::MAX; n];
     let mut heap = BinaryHeap::new();
@@ -88,19 +150,7 @@ pub fn graph_path(points: &[f64], q: usize, from: &[f64], to: &[f64], k: usize, 
             }
         }
     }
-    let mut out = vec![from.to_vec()];
-    if best[t].is_finite() {
-        let mut chain = vec![t];
-        while let Some(&last) = chain.last() {
-            if last == s {
-                break;
-            }
-            chain.push(prev[last]);
-        }
-        out.extend(chain.into_iter().rev().map(|i| pt(i).to_vec()));
-    }
-    out.push(to.to_vec());
-    out
+    (best, prev)
 }
 
 /// `frames` points at constant speed along the polyline, the last one at its end (the
@@ -139,6 +189,31 @@ mod tests {
             assert!(d <= 0.5 + 1e-12 && d > 0.35, "{d}");
             prev = p.clone();
         }
+    }
+
+    /// The polyline's cost under `p`-th powers of its interior steps.
+    fn cost(path: &[Vec<f64>], p: f64) -> f64 {
+        path[1..path.len() - 1].windows(2).map(|w| dist(&w[0], &w[1]).powf(p)).sum()
+    }
+
+    /// The complete graph (k = 0) never costs more than the 8-nearest-neighbour graph (it
+    /// has every edge the other has) and, under the fourth-power cost, takes the same path
+    /// on most of 40 random pairs of a seeded 3-D cloud of 300 points.
+    #[test]
+    fn the_complete_graph_is_never_worse_than_the_neighbour_graph() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let pts: Vec<f64> = (0..900).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let mut same = 0;
+        for _ in 0..40 {
+            let (a, b): (Vec<f64>, Vec<f64>) =
+                ((0..3).map(|_| rng.gen_range(-1.0..1.0)).collect(), (0..3).map(|_| rng.gen_range(-1.0..1.0)).collect());
+            let full = graph_path(&pts, 3, &a, &b, 0, EdgeCost::Power(4.0));
+            let knn = graph_path(&pts, 3, &a, &b, 8, EdgeCost::Power(4.0));
+            assert!(cost(&full, 4.0) <= cost(&knn, 4.0) + 1e-12);
+            same += usize::from(full == knn);
+        }
+        assert!(same >= 30, "{same} of 40 paths identical");
     }
 
     /// On points along an arc, the power cost walks the arc; the inverse cost jumps.

@@ -28,11 +28,11 @@ fn cost_per_frame() {
     let frames: Vec<TrainingFrame> = (0..n)
         .map(|i| TrainingFrame { segment: 0, clip: "c".into(), frame: i as i64, x: x[i * q..(i + 1) * q].to_vec() })
         .collect();
-    let lib = Library { models: vec![&model], frames: vec![frames], links: vec![] };
+    let s = Settings::default();
+    let lib = Library::new(vec![&model], vec![frames], vec![], &s);
     let start = Start { label: "m".into(), segment: Some(0), clip: None, frame: Some(0), latent: None };
     let idle = Command::Idle { duration: 100.0, radius: Some(0.3), poses: vec![], hover: None };
     let script = Script { name: None, seed: 1, start, commands: vec![idle] };
-    let s = Settings::default();
     run(&lib, &script, &s).unwrap();
     let t = std::time::Instant::now();
     let out = run(&lib, &script, &s).unwrap();

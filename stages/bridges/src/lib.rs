@@ -8,18 +8,23 @@
 //! "matches" any pose near it at a point the model knows nothing of; candidates pressed
 //! against the bound are counted). The candidates' distance is measured in M2's scaled control space,
 //! $\lVert W_2(p - g_2(x_2))\rVert$ (mesh length), and, through the rig, as the RMS vertex
-//! distance of the two poses. A pair keeps its candidates under a threshold. The default,
+//! distance of the two poses. A pair keeps its candidates under a threshold, then at most
+//! `max_per_pair` of them, spread over M1's latent space. The default threshold,
 //! `mesh-motion`, is absolute and comes from the data: a bridge's two poses may differ by
-//! at most `motion_multiple` (default 16) times the `motion_quantile` (default 0.5: the
-//! median) of the two labels' per-frame mesh motion — the RMS vertex distance between
-//! consecutive frames of a segment, over both labels' segments (per pair, so that a pair's
-//! bridges depend on its two labels only and the runner can cache each pair). With the defaults, the
-//! 12-frame smoothstep blend, whose steepest frame carries 1.5/12 of the gap, adds at most
-//! two median training frame steps per frame. Two labels with no pose that close
-//! get no direct bridge (the engine then routes through a third label where one bridges
-//! both, or fails). The alternatives: a quantile of
-//! the pair's own rig distances (every pair keeps at least one bridge), or an absolute rig
-//! or mesh distance.
+//! at most `motion_multiple` (default 8) times the `motion_quantile` (default 0.99) of the
+//! two labels' per-frame mesh motion — the RMS vertex distance between consecutive frames
+//! of a segment, over both labels' segments (per pair, so that a pair's bridges depend on
+//! its two labels only and the runner can cache each pair). With the defaults the 12-frame
+//! smoothstep blend, whose steepest frame carries 1.5/12 of the gap, moves the mesh by at
+//! most one 99th-percentile training frame step per frame: no faster than the labels
+//! themselves ever move. Of the candidates under it, the pair keeps the nearest by mesh
+//! distance whose $x_1$ is farther than `spread` median M1 training steps from every
+//! $x_1$ already kept, up to `max_per_pair` (default 50, the top of the paper's 10–50), so
+//! that TRANSITION finds a good bridge near wherever the particle is rather than fifty
+//! neighbours of one pose. Two labels with no pose that close get no direct bridge (the
+//! engine then routes through a third label where one bridges both, or fails). The
+//! alternatives: a quantile of the pair's own rig distances (every pair keeps at least one
+//! bridge), or an absolute rig or mesh distance.
 
 use clap::{Parser, ValueEnum};
 use rayon::prelude::*;
@@ -107,13 +112,21 @@ pub struct Args {
     #[arg(long)]
     pub max_distance: Option<f64>,
     /// With `mesh-motion`: the largest mesh distance kept, in units of the training data's
-    /// per-frame mesh motion at `--motion-quantile` (16 = a 12-frame blend's steepest frame
-    /// carries two such steps).
-    #[arg(long, default_value_t = 16.0)]
+    /// per-frame mesh motion at `--motion-quantile` (8 = a 12-frame blend's steepest frame,
+    /// 1.5/12 of the gap, carries one such step).
+    #[arg(long, default_value_t = 8.0)]
     pub motion_multiple: f64,
     /// With `mesh-motion`: which quantile of the per-frame mesh motion is the unit.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.99)]
     pub motion_quantile: f64,
+    /// The most bridges a pair keeps (0: no limit).
+    #[arg(long, default_value_t = 50)]
+    pub max_per_pair: usize,
+    /// A kept bridge's x₁ is farther than this many median M1 training steps (latent
+    /// distance between consecutive training latents) from every other kept x₁ (0: no
+    /// spacing).
+    #[arg(long, default_value_t = 2.0)]
+    pub spread: f64,
     /// With `mesh-motion`: the threshold is at least this share of the character's size
     /// (the bounding-box diagonal of M1's first training pose's mesh), so that labels that
     /// barely move, whose motion gives a threshold near zero, can still be bridged where
@@ -138,6 +151,9 @@ impl Args {
         }
         if !(self.latent_margin.is_finite() && self.latent_margin >= 0.0) {
             return cfg("--latent-margin must be a finite number >= 0");
+        }
+        if !(self.spread.is_finite() && self.spread >= 0.0) {
+            return cfg("--spread must be a finite number >= 0");
         }
         if self.nearest_starts > MAX_STARTS || self.random_starts > MAX_STARTS || self.max_iters > MAX_ITERS {
             return Err(StageError::Config(format!(
@@ -178,6 +194,8 @@ pub struct PairCount {
     pub to: String,
     /// Candidates tried.
     pub candidates: usize,
+    /// Candidates under the threshold.
+    pub under: usize,
     /// Bridges kept.
     pub kept: usize,
     /// The kept bridges' smallest rig distance.
@@ -278,25 +296,26 @@ pub struct Outcome {
     pub labels: usize,
 }
 
-/// The stage's summary: one line per ordered pair (candidates, bridges kept, the best rig
-/// distance, the pair's per-frame mesh motion and the largest mesh distance kept), then how
-/// many pairs have no direct bridge.
+/// The stage's summary: one line per ordered pair (candidates, those under the threshold,
+/// bridges kept, the best rig distance, the pair's per-frame mesh motion and the largest
+/// mesh distance kept), then how many pairs have no direct bridge.
 impl std::fmt::Display for Outcome {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(
             f,
-            "{:<12} {:<12} {:>10} {:>8} {:>5} {:>12} {:>12} {:>12}",
-            "from", "to", "candidates", "at bound", "kept", "best rig dist", "frame motion", "max mesh"
+            "{:<12} {:<12} {:>10} {:>8} {:>5} {:>5} {:>12} {:>12} {:>12}",
+            "from", "to", "candidates", "at bound", "under", "kept", "best rig dist", "frame motion", "max mesh"
         )?;
         let or_dash = |v: Option<f64>| v.map_or_else(|| "-".into(), |v| format!("{v:.4}"));
         for c in &self.counts {
             writeln!(
                 f,
-                "{:<12} {:<12} {:>10} {:>8} {:>5} {:>12.4} {:>12} {:>12}",
+                "{:<12} {:<12} {:>10} {:>8} {:>5} {:>5} {:>12.4} {:>12} {:>12}",
                 c.from,
                 c.to,
                 c.candidates,
                 c.at_bound,
+                c.under,
                 c.kept,
                 c.best,
                 or_dash(c.frame_motion),
@@ -472,11 +491,18 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
                     (c, Some(m))
                 }
             };
+            let radius = args.spread * median_step(m1);
+            let chosen = spread(kept.iter().map(|c| c.x1.as_slice()), radius, args.max_per_pair);
+            let mesh = mesh.map(|m| chosen.iter().map(|&i| m[i]).collect::<Vec<f64>>());
+            let under = kept.len();
+            let kept: Vec<Candidate> =
+                kept.into_iter().enumerate().filter(|(i, _)| chosen.binary_search(i).is_ok()).map(|(_, c)| c).collect();
             bar.inc(1);
             let count = PairCount {
                 from: m1.label.clone(),
                 to: m2.label.clone(),
                 candidates: tried,
+                under,
                 kept: kept.len(),
                 best: kept.iter().map(|c| c.rig).fold(f64::INFINITY, f64::min),
                 frame_motion: mesh_max.map(|m| m.0).filter(|m| m.is_finite()),
@@ -510,6 +536,36 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
     }
     bridges::write(&args.io.bridges, &all, models[0].q(), &provenance)?;
     Ok(Some(Outcome { counts, labels: models.len() }))
+}
+
+/// Which of `x1s` (in order of preference) a pair keeps: each in turn unless it lies within
+/// `radius` of one already kept, until `max` are kept (0: no limit). Indices ascending.
+fn spread<'a>(x1s: impl Iterator<Item = &'a [f64]>, radius: f64, max: usize) -> Vec<usize> {
+    let mut kept: Vec<(usize, &[f64])> = Vec::new();
+    for (i, x) in x1s.enumerate() {
+        if max > 0 && kept.len() >= max {
+            break;
+        }
+        if kept.iter().all(|(_, k)| reprise_numerics::vector::dist(k, x) > radius) {
+            kept.push((i, x));
+        }
+    }
+    let mut idx: Vec<usize> = kept.into_iter().map(|(i, _)| i).collect();
+    idx.sort_unstable();
+    idx
+}
+
+/// The median latent distance between consecutive training latents of `m` (0 with fewer
+/// than two).
+fn median_step(m: &LatentModel) -> f64 {
+    let q = m.q();
+    let mut steps: Vec<f64> =
+        m.predictor.x().chunks_exact(q).collect::<Vec<_>>().windows(2).map(|w| reprise_numerics::vector::dist(w[0], w[1])).collect();
+    if steps.is_empty() {
+        return 0.0;
+    }
+    steps.sort_by(f64::total_cmp);
+    steps[steps.len() / 2]
 }
 
 /// The diagonal of the bounding box of `mesh` (`x y z …`, mesh units); 0 for none.
@@ -558,6 +614,7 @@ mod tests {
             from: "a".into(),
             to: to.into(),
             candidates: 10,
+            under: 2 * kept,
             kept,
             best: 0.5,
             frame_motion: Some(0.25),
@@ -567,9 +624,10 @@ mod tests {
         let text = super::Outcome { counts: vec![pair("b", 3), pair("c", 0)], labels: 3 }.to_string();
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines.len(), 5, "{text}");
+        assert!(lines[1].contains("     6     3 "), "under the threshold, then kept: {text}");
         assert!(lines[0].starts_with("from") && lines[1].starts_with("a            b"), "{text}");
         assert!(lines[1].contains("0.5000") && lines[1].contains("0.2500") && lines[1].trim_end().ends_with('-'));
-        assert!(lines[0].contains("at bound") && lines[2].contains("10        4     0"), "{text}");
+        assert!(lines[0].contains("at bound") && lines[2].contains("10        4     0     0"), "{text}");
         assert_eq!(
             lines[3],
             "1 of 2 ordered pairs have no direct bridge (synthesis routes through a third label where one bridges both)"
@@ -650,6 +708,19 @@ mod tests {
         assert!(steps["b"].iter().all(|s| (s - 2.0 * unit).abs() < 1e-12), "{steps:?}");
         assert!(frame_steps(&rig, &lf, |l| l == "b").unwrap().keys().eq(["b"]));
     }
+
+    /// Candidates in order of preference on a line: each within the radius of one kept
+    /// is skipped, and no more than `max` are kept.
+    #[test]
+    fn spread_keeps_the_best_apart() {
+        let xs: Vec<Vec<f64>> = [0.0, 0.5, 3.0, 1.5, 0.9, 6.0].iter().map(|&v| vec![v, 0.0]).collect();
+        let it = || xs.iter().map(|x| x.as_slice());
+        assert_eq!(spread(it(), 1.0, 0), vec![0, 2, 3, 5]);
+        assert_eq!(spread(it(), 1.0, 2), vec![0, 2]);
+        assert_eq!(spread(it(), 0.0, 0), vec![0, 1, 2, 3, 4, 5]);
+        assert_eq!(spread(it(), 10.0, 0), vec![0]);
+    }
+
 
     /// A pair's seed depends on its two labels, in order, and on the stage's seed only.
     #[test]

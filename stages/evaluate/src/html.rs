@@ -290,13 +290,17 @@ fn text(c: &str) -> (String, bool, bool) {
 fn tables(s: &mut String, m: &[Metric], ctx: &report::Context<'_>) {
     *s += "<section id='metrics'><h2>Metric tables</h2>";
     for t in [
-        model::overall(m, ctx),
-        model::latency(m, ctx),
-        model::liveliness(m, ctx),
-        model::plausibility(m, ctx),
-        model::paired(m, ctx),
-        model::quality(m, ctx),
-    ] {
+        Some(model::overall(m, ctx)),
+        model::ablation(m, ctx),
+        Some(model::latency(m, ctx)),
+        Some(model::liveliness(m, ctx)),
+        Some(model::plausibility(m, ctx)),
+        Some(model::paired(m, ctx)),
+        Some(model::quality(m, ctx)),
+    ]
+    .into_iter()
+    .flatten()
+    {
         model_table(s, &t);
     }
 

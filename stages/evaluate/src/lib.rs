@@ -69,11 +69,29 @@ reprise_stagekit::stage_io! {
         reprise_curves: required "transitions_reprise.parquet",
         /// Input: reprise's transition curves under other seeds.
         reprise_reseeded: required "transitions_reprise_reseeded.parquet",
+        /// Input: the paper's reprise's answers.
+        reprise_paper_answers: required "answers_reprise_paper.parquet",
+        /// Input: the paper's reprise's transition curves.
+        reprise_paper_curves: required "transitions_reprise_paper.parquet",
+        /// Input: the paper's reprise's transition curves under other seeds.
+        reprise_paper_reseeded: required "transitions_reprise_paper_reseeded.parquet",
+        /// Input (optional): the ablation's answers, the paper with `live-idle`.
+        live_idle_answers: optional "answers_reprise_paper_live_idle.parquet",
+        /// Input (optional): the ablation's curves, the paper with `live-idle`.
+        live_idle_curves: optional "transitions_reprise_paper_live_idle.parquet",
+        /// Input (optional): the ablation's answers, the paper with `landing-choice`.
+        landing_choice_answers: optional "answers_reprise_paper_landing_choice.parquet",
+        /// Input (optional): the ablation's curves, the paper with `landing-choice`.
+        landing_choice_curves: optional "transitions_reprise_paper_landing_choice.parquet",
+        /// Input (optional): the ablation's answers, the paper with `settle`.
+        settle_answers: optional "answers_reprise_paper_settle.parquet",
+        /// Input (optional): the ablation's curves, the paper with `settle`.
+        settle_curves: optional "transitions_reprise_paper_settle.parquet",
         /// Input: the Motion Graphs baseline's answers.
         motion_graphs_answers: required "answers_motion_graphs.parquet",
         /// Input: the Motion Graphs baseline's transition curves.
         motion_graphs_curves: required "transitions_motion_graphs.parquet",
-        /// Input: the Motion Graphs baseline's transition curves.under other seeds.
+        /// Input: the Motion Graphs baseline's transition curves under other seeds.
         motion_graphs_reseeded: required "transitions_motion_graphs_reseeded.parquet",
         /// Input (optional): motion matching's answers (with `--mm-curves`).
         mm_answers: optional "answers_motion_matching.parquet",
@@ -170,6 +188,12 @@ impl Io {
                 Some(self.reprise_reseeded.as_path()),
             ),
             (
+                "reprise-paper",
+                &self.reprise_paper_answers,
+                &self.reprise_paper_curves,
+                Some(self.reprise_paper_reseeded.as_path()),
+            ),
+            (
                 "motion-graphs",
                 &self.motion_graphs_answers,
                 &self.motion_graphs_curves,
@@ -183,6 +207,24 @@ impl Io {
             v.push(("crossfade", a, c, None));
         }
         v
+    }
+
+    /// The ablation's systems given (id, answers, curves), in
+    /// [`reprise_benchmark::systems::ABLATION`]'s order.
+    fn ablation(&self) -> Vec<(&'static str, &Path, &Path)> {
+        let given = [
+            (&self.live_idle_answers, &self.live_idle_curves),
+            (&self.landing_choice_answers, &self.landing_choice_curves),
+            (&self.settle_answers, &self.settle_curves),
+        ];
+        reprise_benchmark::systems::ABLATION
+            .iter()
+            .zip(given)
+            .filter_map(|(def, files)| match files {
+                (Some(a), Some(c)) => Some((def.id, a.as_path(), c.as_path())),
+                _ => None,
+            })
+            .collect()
     }
 }
 
@@ -268,6 +310,14 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         }
         measured.push(per);
     }
+    // The ablation: measured by the same code on the same requests, shown in its own table.
+    let mut ablation = Vec::new();
+    for (id, a, c) in args.io.ablation() {
+        let system = System::load(id, a, c, None, &reqs)?;
+        let (per, _) = measure_system(&rig, &training, settings, &reqs, &system, controls)?;
+        out.extend(aggregate::system_rows(&system, &per, rules));
+        ablation.push((system.id.clone(), system.shown.clone()));
+    }
     for (i, a) in systems.iter().enumerate() {
         for (b, theirs) in systems.iter().zip(&measured).skip(i + 1) {
             out.extend(aggregate::paired((&a.id, &measured[i]), (&b.id, theirs), &pairs, args.latency_horizon));
@@ -302,6 +352,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         graph_kept: (nodes.in_scc.iter().filter(|v| **v).count(), nodes.frame.len()),
         deterministic,
         refusals: systems.iter().map(|s| s.refusals(&reqs)).collect(),
+        ablation: &ablation,
     };
     let md = report::markdown(&out, &ctx);
     let speed: Vec<(String, Vec<i64>, Vec<f64>)> =

@@ -41,6 +41,9 @@ pub struct Context<'a> {
     pub deterministic: Vec<String>,
     /// Each system's unanswered requests and the reasons it gave.
     pub refusals: Vec<crate::systems::Refusals>,
+    /// The ablation's systems measured: (id, shown name), the paper with one improvement
+    /// on each (`reprise_benchmark::systems::ABLATION`).
+    pub ablation: &'a [(String, String)],
 }
 
 impl Context<'_> {
@@ -239,6 +242,60 @@ fn system_head(first: &[&str], ctx: &Context<'_>) -> Vec<String> {
     let mut h: Vec<String> = first.iter().map(|s| s.to_string()).collect();
     h.extend(ctx.systems.iter().map(|(_, n)| n.clone()));
     h
+}
+
+/// The systems `reprise-paper` and `reprise` bracket the ablation with: the paper's method,
+/// and every improvement on.
+const ABLATION_ENDS: [&str; 2] = ["reprise-paper", "reprise"];
+
+/// The ablation: every ranked headline metric for the paper's method, the paper with each
+/// improvement alone, and every improvement on (`reprise`), on the same requests; the best
+/// of each row marked. `None` without the ablation's systems.
+pub fn ablation(m: &[Metric], ctx: &Context<'_>) -> Option<Table> {
+    if ctx.ablation.is_empty() {
+        return None;
+    }
+    let ends: Vec<(String, String)> = ABLATION_ENDS
+        .iter()
+        .filter_map(|id| ctx.systems.iter().find(|(i, _)| i == id).cloned())
+        .collect();
+    let [paper, tuned] = ends.as_slice() else { return None };
+    let columns: Vec<(&str, &str)> = std::iter::once(paper)
+        .chain(ctx.ablation)
+        .chain(std::iter::once(tuned))
+        .map(|(id, shown)| (id.as_str(), shown.as_str()))
+        .collect();
+    let mut head = vec!["metric".to_string()];
+    head.extend(columns.iter().map(|(id, shown)| match *id {
+        "reprise" => format!("{shown} (all on)"),
+        _ => shown.to_string(),
+    }));
+    let rows = reprise_benchmark::metrics::headlines()
+        .filter_map(|def| {
+            let badness = |v: f64| def.direction.badness(v);
+            badness(0.0)?;
+            let found: Vec<Option<&Metric>> =
+                columns.iter().map(|(id, _)| find(m, id, def.id, "all", "all").filter(|r| r.n > 0)).collect();
+            let best = found
+                .iter()
+                .flatten()
+                .filter_map(|r| badness(r.value))
+                .filter(|b| b.is_finite())
+                .fold(f64::INFINITY, f64::min);
+            let mut row = vec![Cell::text(format!("`{}`", def.id))];
+            row.extend(found.iter().map(|r| Cell {
+                best: r.and_then(|r| badness(r.value)) == Some(best),
+                ..Cell::num(cell(*r))
+            }));
+            Some(row)
+        })
+        .collect();
+    Some(Table {
+        id: "ablation",
+        title: "Ablation: the paper's method, each improvement alone, and all together (same requests)".into(),
+        head,
+        rows,
+    })
 }
 
 /// The overall table: every headline metric, every system, the best marked.

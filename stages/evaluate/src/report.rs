@@ -19,12 +19,16 @@ pub fn markdown(m: &[Metric], ctx: &Context<'_>) -> String {
     let _ = writeln!(s, "# {}: reprise against {}\n", ctx.name, others.join(", "));
     conclusions(&mut s, m, ctx);
     for t in [
-        page::overall(m, ctx),
-        page::latency(m, ctx),
-        page::liveliness(m, ctx),
-        page::plausibility(m, ctx),
-        page::paired(m, ctx),
-    ] {
+        Some(page::overall(m, ctx)),
+        page::ablation(m, ctx),
+        Some(page::latency(m, ctx)),
+        Some(page::liveliness(m, ctx)),
+        Some(page::plausibility(m, ctx)),
+        Some(page::paired(m, ctx)),
+    ]
+    .into_iter()
+    .flatten()
+    {
         table(&mut s, &t);
     }
     paired_grids(&mut s, m, ctx);
@@ -236,6 +240,7 @@ pub(crate) mod tests {
             graph_kept: (1, 2),
             deterministic: deterministic.iter().map(|d| d.to_string()).collect(),
             refusals: vec![],
+            ablation: &[],
         };
         f(&ctx)
     }

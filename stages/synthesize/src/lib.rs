@@ -11,6 +11,7 @@ use reprise_artifact::curves::{self, Curves};
 pub use reprise_model_library::LibraryParts;
 use reprise_stagekit::{StageError, StageResult};
 use reprise_synth_engine::engine::{self, Settings};
+use reprise_synth_engine::method::{BridgeChoice, IdleRule, Method};
 use reprise_synth_engine::particle::ConstraintSign;
 use reprise_synth_engine::path::EdgeCost;
 use reprise_synth_engine::script::Script;
@@ -34,6 +35,26 @@ pub enum Cost {
     Power,
     /// ‖Δ‖^−p (the paper's weight read as a cost).
     InversePower,
+}
+
+/// How the random force and drag are set (`docs/method.md`, improvement `live-idle`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Idle {
+    /// --random-variance and --drag for every label (the paper's fixed force).
+    Fixed,
+    /// Each label's own, from its training frames.
+    FromData,
+}
+
+/// Which bridge TRANSITION takes (improvement `landing-choice`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BridgeRule {
+    /// The nearest (the paper).
+    Nearest,
+    /// Least travel-plus-landing time.
+    TravelAndLanding,
 }
 
 reprise_stagekit::stage_io! {
@@ -117,6 +138,19 @@ pub struct Args {
     /// MOVE graph cost exponent p.
     #[arg(long, default_value_t = 4.0)]
     pub graph_power: f64,
+    /// MOVE graph neighbours per latent point (0: the paper's complete graph).
+    #[arg(long, default_value_t = 0)]
+    pub graph_k: usize,
+    /// Idle force and drag.
+    #[arg(long, value_enum, default_value_t = Idle::FromData)]
+    pub idle: Idle,
+    /// TRANSITION's bridge.
+    #[arg(long, value_enum, default_value_t = BridgeRule::TravelAndLanding)]
+    pub bridge_choice: BridgeRule,
+    /// After TRANSITION, move to the target label's training pose nearest the landing
+    /// (improvement `settle`; `--settle false` idles at the landing, as the paper does).
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    pub settle: bool,
 }
 
 impl Args {
@@ -147,6 +181,18 @@ impl Args {
             graph_cost: match self.graph_cost {
                 Cost::Power => EdgeCost::Power(self.graph_power),
                 Cost::InversePower => EdgeCost::InversePower(self.graph_power),
+            },
+            graph_k: self.graph_k,
+            method: Method {
+                idle: match self.idle {
+                    Idle::Fixed => IdleRule::Fixed,
+                    Idle::FromData => IdleRule::FromData,
+                },
+                bridge_choice: match self.bridge_choice {
+                    BridgeRule::Nearest => BridgeChoice::Nearest,
+                    BridgeRule::TravelAndLanding => BridgeChoice::TravelAndLanding,
+                },
+                settle: self.settle,
             },
             ..d
         }
@@ -212,8 +258,8 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<ScriptSummary>>> {
         &args.io.bridges,
     )?;
     let models = &parts.models;
-    let lib = parts.library();
     let settings = args.settings();
+    let lib = parts.library(&settings);
     let results: Vec<StageResult<(String, Vec<engine::Frame>, f64)>> = scripts
         .par_iter()
         .map(|s| {

@@ -28,6 +28,7 @@ use reprise_artifact::transitions::{self, Answer, Request};
 use reprise_model_library::LibraryParts;
 use reprise_stagekit::{StageError, StageResult};
 use reprise_synth_engine::engine::{self, Settings};
+use reprise_synth_engine::method::Method;
 use reprise_synth_engine::script::{Command, Script, Start};
 use reprise_transition_graph::{blend_weight, Graph};
 use serde::Serialize;
@@ -63,6 +64,24 @@ reprise_stagekit::stage_io! {
         reprise_curves: artifact "transitions_reprise.parquet",
         /// Output: reprise's curves for the same requests under other seeds (for variety).
         reprise_reseeded: artifact "transitions_reprise_reseeded.parquet",
+        /// Output: the paper's reprise's answers.
+        reprise_paper_answers: artifact "answers_reprise_paper.parquet",
+        /// Output: the paper's reprise's curves.
+        reprise_paper_curves: artifact "transitions_reprise_paper.parquet",
+        /// Output: the paper's reprise's curves under other seeds.
+        reprise_paper_reseeded: artifact "transitions_reprise_paper_reseeded.parquet",
+        /// Output: the ablation's answers, the paper with `live-idle`.
+        live_idle_answers: artifact "answers_reprise_paper_live_idle.parquet",
+        /// Output: the ablation's curves, the paper with `live-idle`.
+        live_idle_curves: artifact "transitions_reprise_paper_live_idle.parquet",
+        /// Output: the ablation's answers, the paper with `landing-choice`.
+        landing_choice_answers: artifact "answers_reprise_paper_landing_choice.parquet",
+        /// Output: the ablation's curves, the paper with `landing-choice`.
+        landing_choice_curves: artifact "transitions_reprise_paper_landing_choice.parquet",
+        /// Output: the ablation's answers, the paper with `settle`.
+        settle_answers: artifact "answers_reprise_paper_settle.parquet",
+        /// Output: the ablation's curves, the paper with `settle`.
+        settle_curves: artifact "transitions_reprise_paper_settle.parquet",
         /// Output: the baseline's answers.
         motion_graphs_answers: artifact "answers_motion_graphs.parquet",
         /// Output: the baseline's curves.
@@ -138,22 +157,108 @@ struct Baseline<'a> {
     slack: f64,
 }
 
-/// One request's answers: the request, reprise's frames, the baseline's frames, and
-/// reprise's frames under another seed.
+/// One request's answers: the request, and per system (in [`Io::systems`]' order) its answer.
 struct Answers {
     request: Request,
-    /// Per system (reprise, baseline).
-    systems: [Reply; 2],
+    systems: Vec<Reply>,
 }
 
-/// One system's answer and its frames under the request's seed and under the reseeded one.
-type Reply = (Answer, Result<Played, String>, Result<Played, String>);
+/// One system's answer, its frames under the request's seed and, for a system with
+/// reseeded curves, under the reseeded one.
+type Reply = (Answer, Result<Played, String>, Option<Result<Played, String>>);
 
-/// What the stage answered: per request, (reprise's, the baseline's) answer.
-pub type Answered = Vec<(Request, [Answer; 2])>;
+/// What the stage answered: the systems' ids and, per request, each system's answer (in
+/// the same order).
+#[derive(Debug, Clone)]
+pub struct Answered {
+    /// System ids.
+    pub systems: Vec<&'static str>,
+    /// Per request, each system's answer.
+    pub rows: Vec<(Request, Vec<Answer>)>,
+}
 
-/// The systems this stage answers with, in the order of [`Answers::systems`].
-const SYSTEMS: [&str; 2] = ["reprise", "motion-graphs"];
+impl Answered {
+    /// One [`reprise_stagekit::AnswerSummary`] per system.
+    pub fn summaries(&self) -> Vec<reprise_stagekit::AnswerSummary> {
+        (self.systems.iter().enumerate())
+            .map(|(s, id)| reprise_stagekit::AnswerSummary::new(id, self.rows.iter().map(|(_, a)| &a[s])))
+            .collect()
+    }
+}
+
+/// How one system of this stage answers.
+#[derive(Debug, Clone, Copy)]
+enum Player {
+    /// The synthesis engine under a method.
+    Reprise(Method),
+    /// The motion graph.
+    MotionGraphs,
+}
+
+/// One system this stage answers with: its id, how it plays, and its files (answers,
+/// curves, and the reseeded curves for a system measured for variety).
+struct Output<'a> {
+    id: &'static str,
+    player: Player,
+    answers: &'a std::path::Path,
+    curves: &'a std::path::Path,
+    reseeded: Option<&'a std::path::Path>,
+}
+
+impl Io {
+    /// The systems, in the order of [`Answered`]: reprise (tuned), the paper's reprise,
+    /// Motion Graphs, then the ablation (the paper with each improvement alone, in
+    /// [`Method::IMPROVEMENTS`]' order, ids as `reprise_benchmark::systems::ABLATION`).
+    fn systems(&self) -> Vec<Output<'_>> {
+        let paper = Method::PAPER;
+        let improved = |i: usize| Player::Reprise((Method::IMPROVEMENTS[i].apply)(paper));
+        let ablation = reprise_benchmark::systems::ABLATION;
+        vec![
+            Output {
+                id: "reprise",
+                player: Player::Reprise(Method::TUNED),
+                answers: &self.reprise_answers,
+                curves: &self.reprise_curves,
+                reseeded: Some(&self.reprise_reseeded),
+            },
+            Output {
+                id: "reprise-paper",
+                player: Player::Reprise(paper),
+                answers: &self.reprise_paper_answers,
+                curves: &self.reprise_paper_curves,
+                reseeded: Some(&self.reprise_paper_reseeded),
+            },
+            Output {
+                id: "motion-graphs",
+                player: Player::MotionGraphs,
+                answers: &self.motion_graphs_answers,
+                curves: &self.motion_graphs_curves,
+                reseeded: Some(&self.motion_graphs_reseeded),
+            },
+            Output {
+                id: ablation[0].id,
+                player: improved(0),
+                answers: &self.live_idle_answers,
+                curves: &self.live_idle_curves,
+                reseeded: None,
+            },
+            Output {
+                id: ablation[1].id,
+                player: improved(1),
+                answers: &self.landing_choice_answers,
+                curves: &self.landing_choice_curves,
+                reseeded: None,
+            },
+            Output {
+                id: ablation[2].id,
+                player: improved(2),
+                answers: &self.settle_answers,
+                curves: &self.settle_curves,
+                reseeded: None,
+            },
+        ]
+    }
+}
 
 /// The seed offset of the repeated runs.
 pub const RESEED: u64 = 1_000_003;
@@ -305,8 +410,8 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     let (nodes, edges) = (&mg.nodes, &mg.edges);
     let g = Graph::from_edges(nodes.frame.len(), edges.iter().map(|e| (e.from, e.to, e.cost)))
         .map_err(|e| StageError::Input(format!("{}: {e}", args.io.mg_edges.display())))?;
-    let lib = parts.library();
     let settings = Settings { fps: labeled.frames.fps, ..Settings::default() };
+    let lib = parts.library(&settings);
     let hold_frames = (args.hold * labeled.frames.fps).round() as usize;
     // The seeded requests.
     let labels: Vec<String> = models.models.iter().map(|m| m.label.clone()).collect();
@@ -357,18 +462,16 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     };
     let bar = reprise_stagekit::progress(requests.len() as u64, "transitions");
     let fps = labeled.frames.fps;
-    let outputs = [
-        (&args.io.reprise_answers, &args.io.reprise_curves, &args.io.reprise_reseeded),
-        (&args.io.motion_graphs_answers, &args.io.motion_graphs_curves, &args.io.motion_graphs_reseeded),
-    ];
+    let outputs = args.io.systems();
     // Requests are answered a chunk at a time and their frames written before the next
     // chunk: the stage holds a chunk's frames, not the benchmark's.
     let resolution = curves::Resolution::relative(args.resolution, &labeled.frames.ranges());
-    let mut writers = outputs.map(|(_, c, r)| {
-        [c, r]
-            .map(|p| curves::Writer::create(p, fps, &models.controls, &provenance).with_resolution(resolution.clone()))
-    });
-    let mut answered: Answered = Vec::with_capacity(requests.len());
+    let writer = |p: &std::path::Path| {
+        curves::Writer::create(p, fps, &models.controls, &provenance).with_resolution(resolution.clone())
+    };
+    let mut writers: Vec<(curves::Writer, Option<curves::Writer>)> =
+        outputs.iter().map(|o| (writer(o.curves), o.reseeded.map(writer))).collect();
+    let mut answered: Vec<(Request, Vec<Answer>)> = Vec::with_capacity(requests.len());
     let answer = |(id, a, b, r): &(usize, String, String, usize)| {
         let hold =
             Command::Idle { duration: args.hold.max(1.0 / settings.fps), radius: None, poses: vec![], hover: None };
@@ -387,8 +490,9 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
         };
         // reprise is asked after its hold: at the hold's last frame; the baseline at
         // its start frame.
-        let ours = |seed: u64| {
-            engine::run(&lib, &Script { seed, ..script.clone() }, &settings)
+        let ours = |method: Method, seed: u64| {
+            let set = Settings { method, ..settings };
+            engine::run(&lib, &Script { seed, ..script.clone() }, &set)
                 .map(|f| {
                     let asked = f.iter().position(|f| f.command == 1).map_or(0, |i| i.saturating_sub(1));
                     let played = f.into_iter().map(|f| PlayedFrame {
@@ -401,7 +505,10 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
                 })
                 .map_err(|e| e.to_string())
         };
-        let theirs = |seed: u64| base.answer(*r, b, seed).map(|p| (0, p));
+        let play = |player: Player, seed: u64| match player {
+            Player::Reprise(method) => ours(method, seed),
+            Player::MotionGraphs => base.answer(*r, b, seed).map(|p| (0, p)),
+        };
         let answer = |p: &Result<(usize, Played), String>| match p {
             Ok((asked, p)) => match latency(p, b, *asked) {
                 Some(l) => Answer::reached(*asked, l),
@@ -409,9 +516,9 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
             },
             Err(e) => Answer::failed(e.clone()),
         };
-        let system = |play: &dyn Fn(u64) -> Result<(usize, Played), String>| {
-            let first = play(seed);
-            let again = play(seed.wrapping_add(RESEED)).map(|(_, p)| p);
+        let system = |o: &Output<'_>| {
+            let first = play(o.player, seed);
+            let again = o.reseeded.map(|_| play(o.player, seed.wrapping_add(RESEED)).map(|(_, p)| p));
             (answer(&first), first.map(|(_, p)| p), again)
         };
         let request = Request {
@@ -423,13 +530,14 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
             frame: labeled.frames.frame[*r],
         };
         bar.inc(1);
-        Answers { request, systems: [system(&ours), system(&theirs)] }
+        Answers { request, systems: outputs.iter().map(system).collect() }
     };
     reprise_stagekit::par_map_chunked(&requests, answer, |ans: Answers| {
         let id = ans.request.request;
-        for (out, (_, first, again)) in writers.iter_mut().zip(&ans.systems) {
-            for (w, played) in out.iter_mut().zip([first, again]) {
-                if let Ok(p) = played {
+        for ((first_w, again_w), (_, first, again)) in writers.iter_mut().zip(&ans.systems) {
+            let pairs = std::iter::once((first_w, Some(first))).chain(again_w.as_mut().map(|w| (w, again.as_ref())));
+            for (w, played) in pairs {
+                if let Some(Ok(p)) = played {
                     let frames = p.iter().map(|f| curves::Frame {
                         model: &f.label,
                         controls: &f.controls,
@@ -440,21 +548,21 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
                 }
             }
         }
-        let [ours, theirs] = ans.systems;
-        answered.push((ans.request, [ours.0, theirs.0]));
+        answered.push((ans.request, ans.systems.into_iter().map(|s| s.0).collect()));
         Ok(())
     })?;
     bar.finish_and_clear();
-    for (s, ((answers_path, _, _), out)) in outputs.into_iter().zip(writers).enumerate() {
+    for (s, (o, (first, again))) in outputs.iter().zip(writers).enumerate() {
         let rows: Vec<(i64, Answer)> = answered.iter().map(|(r, a)| (r.request, a[s].clone())).collect();
-        transitions::write_answers(answers_path, SYSTEMS[s], &rows, &provenance)?;
-        for w in out {
+        transitions::write_answers(o.answers, o.id, &rows, &provenance)?;
+        first.finish()?;
+        if let Some(w) = again {
             w.finish()?;
         }
     }
     let reqs: Vec<Request> = answered.iter().map(|(r, _)| r.clone()).collect();
     transitions::write_requests(&args.io.requests, &reqs, &provenance)?;
-    Ok(Some(answered))
+    Ok(Some(Answered { systems: outputs.iter().map(|o| o.id).collect(), rows: answered }))
 }
 
 #[cfg(test)]

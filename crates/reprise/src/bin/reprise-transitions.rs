@@ -5,8 +5,8 @@ fn main() {
     let args = reprise_transitions::Args::parse();
     reprise_stagekit::main("reprise-transitions", reprise_stagekit::code_id!("REPRISE_CODE_ID_TRANSITIONS"), || {
         if let Some(answers) = reprise_transitions::run(&args)? {
-            for (s, name) in ["reprise", "motion-graphs"].into_iter().enumerate() {
-                eprintln!("{}", reprise_stagekit::AnswerSummary::new(name, answers.iter().map(|(_, a)| &a[s])));
+            for summary in answers.summaries() {
+                eprintln!("{summary}");
             }
         }
         Ok(())
