@@ -154,17 +154,20 @@ impl<'a> Library<'a> {
                 l.landing = landing(models[b], &means[b], &l.x2);
             }
         }
-        let dynamics = models.iter().zip(&frames).map(|(m, f)| calibrate(m, f, set)).collect();
+        let dynamics: Vec<Option<Dynamics>> = models.iter().zip(&frames).map(|(m, f)| calibrate(m, f, set)).collect();
         Self { models, frames, links, dynamics }
     }
 }
 
 /// A model's [`Dynamics`]: the closed-form rule, then IDLE simulated from
 /// [`crate::method::CALIBRATION_STARTS`] training latents and $\alpha$ scaled until the
-/// mean latent speed (after the first half-second) matches the training speed.
+/// mean latent speed (after the first half-second) matches the training speed, never above
+/// $(\kappa\,\omega_0^2 r)^2$ ([`crate::method::MAX_FORCE_RATIO`]).
 fn calibrate(model: &LatentModel, frames: &[TrainingFrame], set: &Settings) -> Option<Dynamics> {
-    use crate::method::{CALIBRATION_ROUNDS, CALIBRATION_SECONDS, CALIBRATION_STARTS};
+    use crate::method::{CALIBRATION_ROUNDS, CALIBRATION_SECONDS, CALIBRATION_STARTS, MAX_FORCE_RATIO};
+    let max_variance = (MAX_FORCE_RATIO * set.particle.omega0.powi(2) * set.radius).powi(2);
     let mut dynamics = Dynamics::from_training(frames, set.fps, set.random_gamma)?;
+    dynamics.random_variance = dynamics.random_variance.min(max_variance);
     let set = Settings { method: Method { idle: IdleRule::FromData, ..set.method }, ..*set };
     let skip = (0.5 * set.fps).round() as usize;
     let starts: Vec<usize> = (0..CALIBRATION_STARTS).map(|i| i * frames.len() / CALIBRATION_STARTS).collect();
@@ -197,7 +200,7 @@ fn calibrate(model: &LatentModel, frames: &[TrainingFrame], set: &Settings) -> O
             break;
         }
         let factor = (dynamics.training_speed / measured).powi(2).clamp(1.0 / 16.0, 16.0);
-        dynamics.random_variance *= factor;
+        dynamics.random_variance = (dynamics.random_variance * factor).min(max_variance);
     }
     Some(dynamics)
 }
@@ -779,8 +782,8 @@ mod tests {
             let out = run(lib, &script(cmds, 2), &Settings::paper()).unwrap();
             let sw = out.iter().position(|f| f.model == 1).expect("switched");
             assert!(out[..sw].iter().all(|f| f.model == 0) && out[sw..].iter().all(|f| f.model == 1));
-            let arrival = ARRIVAL_SLACK
-                * Settings::paper().tight_radius.max(typical_speed(&lib.frames[0], 24.0).unwrap() / 24.0);
+            let arrival =
+                ARRIVAL_SLACK * Settings::paper().tight_radius.max(typical_speed(&lib.frames[0], 24.0).unwrap() / 24.0);
             assert!(dist(&out[sw - 1].x, &[0.8, 1.27]) <= arrival, "switches at the bridge: {:?}", out[sw - 1].x);
             let step = |i: usize| dist(&out[i].controls, &out[i - 1].controls);
             let across = (sw..sw + 12).map(step).fold(0.0, f64::max);
@@ -969,6 +972,28 @@ mod tests {
             assert!((0.6 * want..1.4 * want).contains(&mean), "tuned idle {mean:.3} vs training {want:.3}: {speeds:?}");
             let paper = mean_speed(&run(&lib, &script(idle.clone(), 0), &Settings::paper()).unwrap(), 12);
             assert!(paper < 0.5 * want, "the paper's idle {paper:.3} vs training {want:.3}");
+        });
+    }
+
+    /// A label whose training motion is far faster than an idle disc allows: `live-idle`
+    /// caps the random force at the constraint's pull ($\alpha \le (\omega_0^2 r)^2$), and
+    /// the idle stays in its disc instead of diverging (a regression: dragon-face's `roar`
+    /// calibrated to $\alpha = 3.1\times10^5$ and left for $10^{153}$ latent units).
+    #[test]
+    fn a_live_idle_stays_in_a_disc_too_small_for_its_label() {
+        let set = Settings { radius: 0.01, method: Method::TUNED, ..Settings::paper() };
+        with_lib(vec![], |lib| {
+            let lib = Library::new(lib.models.clone(), lib.frames.clone(), vec![], &set);
+            let cap = (set.particle.omega0.powi(2) * set.radius).powi(2);
+            let alpha = lib.dynamics[0].expect("the arc moves").random_variance;
+            assert!(alpha <= cap * (1.0 + 1e-12), "alpha {alpha} above the cap {cap}");
+            let idle = vec![Command::Idle { duration: 8.0, radius: None, poses: vec![], hover: None }];
+            for seed in 0..4 {
+                let out = run(&lib, &script(idle.clone(), seed), &set).unwrap();
+                let x0 = &out[0].x;
+                let worst = out.iter().map(|f| dist(&f.x, x0)).fold(0.0, f64::max);
+                assert!(worst < 4.0 * set.radius, "seed {seed}: strays {worst}");
+            }
         });
     }
 

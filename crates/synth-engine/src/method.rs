@@ -19,7 +19,13 @@
 //!   - then corrected by simulation, since the disc and the density force slow the free
 //!     particle: IDLE is run from [`CALIBRATION_STARTS`] training latents for
 //!     [`CALIBRATION_SECONDS`] and $\alpha_m$ scaled by $(\bar s_m / \text{measured})^2$,
-//!     [`CALIBRATION_ROUNDS`] times (each factor clamped to $[1/16, 16]$).
+//!     [`CALIBRATION_ROUNDS`] times (each factor clamped to $[1/16, 16]$);
+//!   - and at most $\alpha_{\max} = (\kappa\,\omega_0^2 r)^2$ ([`MAX_FORCE_RATIO`] $=\kappa$,
+//!     $r$ the default idle radius): a random force stronger than the path constraint's pull
+//!     at the disc's edge throws the particle out of the disc, and the constrained
+//!     integration then diverges (measured on dragon-face: `roar` calibrated to
+//!     $\alpha = 3.1\times10^5$ left for $10^{153}$ latent units). A label whose training
+//!     motion is faster than an idle within $r$ can be therefore idles slower than it moves.
 //! - **`landing-choice`** ([`BridgeChoice::TravelAndLanding`]): TRANSITION takes the bridge
 //!   of least expected time until the particle is at a pose of the target label,
 //!   $\lVert x - x_1\rVert / v_A + \lVert x_2 - x_B\rVert / v_B$, with $v$ each model's
@@ -124,6 +130,9 @@ pub const CALIBRATION_STARTS: usize = 4;
 pub const CALIBRATION_SECONDS: f64 = 6.0;
 /// Rounds of the calibration.
 pub const CALIBRATION_ROUNDS: usize = 2;
+/// $\kappa$: the random force's standard deviation per component is at most $\kappa$ times
+/// the constraint's pull $\omega_0^2 r$ at the edge of the default idle disc.
+pub const MAX_FORCE_RATIO: f64 = 1.0;
 /// The longest velocity memory $\tau$ the rule allows (s).
 pub const MAX_MEMORY_SECONDS: f64 = 2.0;
 
@@ -153,11 +162,8 @@ fn velocity_runs(frames: &[TrainingFrame], fps: f64) -> Vec<Vec<Vec<f64>>> {
 /// `q` dimensions: $m_q = \sqrt2\,\Gamma(\frac{q+1}2)/\Gamma(\frac q2)$, by
 /// $m_1 = \sqrt{2/\pi}$, $m_2 = \sqrt{\pi/2}$, $m_{q+2} = m_q\,(q+1)/q$.
 pub fn mean_speed_factor(q: usize) -> f64 {
-    let (mut m, mut k) = if q % 2 == 1 {
-        ((2.0 / std::f64::consts::PI).sqrt(), 1)
-    } else {
-        ((std::f64::consts::PI / 2.0).sqrt(), 2)
-    };
+    let (mut m, mut k) =
+        if q % 2 == 1 { ((2.0 / std::f64::consts::PI).sqrt(), 1) } else { ((std::f64::consts::PI / 2.0).sqrt(), 2) };
     while k < q.max(1) {
         m *= (k + 1) as f64 / k as f64;
         k += 2;

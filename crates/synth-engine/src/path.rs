@@ -206,8 +206,10 @@ mod tests {
         let pts: Vec<f64> = (0..900).map(|_| rng.gen_range(-1.0..1.0)).collect();
         let mut same = 0;
         for _ in 0..40 {
-            let (a, b): (Vec<f64>, Vec<f64>) =
-                ((0..3).map(|_| rng.gen_range(-1.0..1.0)).collect(), (0..3).map(|_| rng.gen_range(-1.0..1.0)).collect());
+            let (a, b): (Vec<f64>, Vec<f64>) = (
+                (0..3).map(|_| rng.gen_range(-1.0..1.0)).collect(),
+                (0..3).map(|_| rng.gen_range(-1.0..1.0)).collect(),
+            );
             let full = graph_path(&pts, 3, &a, &b, 0, EdgeCost::Power(4.0));
             let knn = graph_path(&pts, 3, &a, &b, 8, EdgeCost::Power(4.0));
             assert!(cost(&full, 4.0) <= cost(&knn, 4.0) + 1e-12);

@@ -559,8 +559,14 @@ fn spread<'a>(x1s: impl Iterator<Item = &'a [f64]>, radius: f64, max: usize) -> 
 /// than two).
 fn median_step(m: &LatentModel) -> f64 {
     let q = m.q();
-    let mut steps: Vec<f64> =
-        m.predictor.x().chunks_exact(q).collect::<Vec<_>>().windows(2).map(|w| reprise_numerics::vector::dist(w[0], w[1])).collect();
+    let mut steps: Vec<f64> = m
+        .predictor
+        .x()
+        .chunks_exact(q)
+        .collect::<Vec<_>>()
+        .windows(2)
+        .map(|w| reprise_numerics::vector::dist(w[0], w[1]))
+        .collect();
     if steps.is_empty() {
         return 0.0;
     }
@@ -720,7 +726,6 @@ mod tests {
         assert_eq!(spread(it(), 0.0, 0), vec![0, 1, 2, 3, 4, 5]);
         assert_eq!(spread(it(), 10.0, 0), vec![0]);
     }
-
 
     /// A pair's seed depends on its two labels, in order, and on the stage's seed only.
     #[test]

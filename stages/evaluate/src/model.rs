@@ -255,10 +255,8 @@ pub fn ablation(m: &[Metric], ctx: &Context<'_>) -> Option<Table> {
     if ctx.ablation.is_empty() {
         return None;
     }
-    let ends: Vec<(String, String)> = ABLATION_ENDS
-        .iter()
-        .filter_map(|id| ctx.systems.iter().find(|(i, _)| i == id).cloned())
-        .collect();
+    let ends: Vec<(String, String)> =
+        ABLATION_ENDS.iter().filter_map(|id| ctx.systems.iter().find(|(i, _)| i == id).cloned()).collect();
     let [paper, tuned] = ends.as_slice() else { return None };
     let columns: Vec<(&str, &str)> = std::iter::once(paper)
         .chain(ctx.ablation)
@@ -283,10 +281,11 @@ pub fn ablation(m: &[Metric], ctx: &Context<'_>) -> Option<Table> {
                 .filter(|b| b.is_finite())
                 .fold(f64::INFINITY, f64::min);
             let mut row = vec![Cell::text(format!("`{}`", def.id))];
-            row.extend(found.iter().map(|r| Cell {
-                best: r.and_then(|r| badness(r.value)) == Some(best),
-                ..Cell::num(cell(*r))
-            }));
+            row.extend(
+                found
+                    .iter()
+                    .map(|r| Cell { best: r.and_then(|r| badness(r.value)) == Some(best), ..Cell::num(cell(*r)) }),
+            );
             Some(row)
         })
         .collect();
