@@ -79,19 +79,23 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     let pairs: std::collections::BTreeSet<(&str, &str)> =
         bridges.iter().map(|b| (b.from.as_str(), b.to.as_str())).collect();
     // The absolute threshold the stage derived from each pair's data (its table's last
-    // column: from, to, candidates, at bound, kept, best, frame motion, max mesh), and the bridges it
-    // kept: every one within its pair's; a pair without one is left to routing (the scripts
-    // still run below).
+    // column: from, to, candidates, at bound, under, kept, best, frame motion, max mesh), and the
+    // bridges it kept: every one within its pair's, at most 50 a pair; a pair without one is
+    // left to routing (the scripts still run below).
     let max: std::collections::BTreeMap<(String, String), f64> = out
         .lines()
         .filter_map(|l| {
             let w: Vec<&str> = l.split_whitespace().collect();
-            let max = w.get(7)?.parse().ok().filter(|_| w.len() == 8 && w[2].parse::<usize>().is_ok())?;
+            let max = w.get(8)?.parse().ok().filter(|_| w.len() == 9 && w[2].parse::<usize>().is_ok())?;
             Some(((w[0].to_string(), w[1].to_string()), max))
         })
         .collect();
     assert_eq!(max.len(), 56, "a threshold for every ordered pair in {out}");
     assert!((1..=56).contains(&pairs.len()), "{} ordered pairs bridged", pairs.len());
+    for (from, to) in &pairs {
+        let n = bridges.iter().filter(|b| (b.from.as_str(), b.to.as_str()) == (*from, *to)).count();
+        assert!(n <= 50, "{from} → {to} keeps {n} bridges");
+    }
     assert!(bridges.iter().all(|b| {
         let limit = max[&(b.from.clone(), b.to.clone())];
         b.mesh_distance.is_some_and(|m| m.is_finite() && m <= limit + 1e-4) && b.rank >= 1

@@ -84,11 +84,8 @@ fn complete_dijkstra(n: usize, s: usize, t: usize, w: impl Fn(usize, usize) -> f
     let mut prev = vec![usize::MAX; n];
     let mut done = vec![false; n];
     best[s] = 0.0;
-    loop {
-        let Some(i) = (0..n).filter(|&i| !done[i] && best[i].is_finite()).min_by(|&a, &b| best[a].total_cmp(&best[b]))
-        else {
-            break;
-        };
+    while let Some(i) = (0..n).filter(|&i| !done[i] && best[i].is_finite()).min_by(|&a, &b| best[a].total_cmp(&best[b]))
+    {
         done[i] = true;
         if i == t {
             break;
