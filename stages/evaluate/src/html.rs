@@ -289,19 +289,8 @@ fn text(c: &str) -> (String, bool, bool) {
 
 fn tables(s: &mut String, m: &[Metric], ctx: &report::Context<'_>) {
     *s += "<section id='metrics'><h2>Metric tables</h2>";
-    for t in [
-        Some(model::overall(m, ctx)),
-        model::ablation(m, ctx),
-        Some(model::latency(m, ctx)),
-        Some(model::liveliness(m, ctx)),
-        Some(model::plausibility(m, ctx)),
-        Some(model::paired(m, ctx)),
-        Some(model::quality(m, ctx)),
-    ]
-    .into_iter()
-    .flatten()
-    {
-        model_table(s, &t);
+    for t in model::metric_tables(m, ctx).iter().chain([&model::quality(m, ctx)]) {
+        model_table(s, t);
     }
 
     *s += "<details><summary>Every overall row (click a header to sort)</summary>";

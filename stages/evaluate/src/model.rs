@@ -10,6 +10,7 @@ use crate::measure::{Phase, PlausibilityReference as Reference, Space};
 use crate::training::Training;
 
 /// What the report needs besides the metric rows.
+#[derive(Clone)]
 pub struct Context<'a> {
     /// The pipeline's name.
     pub name: &'a str,
@@ -247,6 +248,22 @@ fn system_head(first: &[&str], ctx: &Context<'_>) -> Vec<String> {
 /// The systems `reprise-paper` and `reprise` bracket the ablation with: the paper's method,
 /// and every improvement on.
 const ABLATION_ENDS: [&str; 2] = ["reprise-paper", "reprise"];
+
+/// The metric tables both report forms show, in their order: overall, the ablation (when
+/// its systems were given), latency, liveliness, plausibility and the paired comparisons.
+pub fn metric_tables(m: &[Metric], ctx: &Context<'_>) -> Vec<Table> {
+    [
+        Some(overall(m, ctx)),
+        ablation(m, ctx),
+        Some(latency(m, ctx)),
+        Some(liveliness(m, ctx)),
+        Some(plausibility(m, ctx)),
+        Some(paired(m, ctx)),
+    ]
+    .into_iter()
+    .flatten()
+    .collect()
+}
 
 /// The ablation: every ranked headline metric for the paper's method, the paper with each
 /// improvement alone, and every improvement on (`reprise`), on the same requests; the best

@@ -18,17 +18,7 @@ pub fn markdown(m: &[Metric], ctx: &Context<'_>) -> String {
     let others: Vec<&str> = ctx.systems.iter().skip(1).map(|(_, n)| n.as_str()).collect();
     let _ = writeln!(s, "# {}: reprise against {}\n", ctx.name, others.join(", "));
     conclusions(&mut s, m, ctx);
-    for t in [
-        Some(page::overall(m, ctx)),
-        page::ablation(m, ctx),
-        Some(page::latency(m, ctx)),
-        Some(page::liveliness(m, ctx)),
-        Some(page::plausibility(m, ctx)),
-        Some(page::paired(m, ctx)),
-    ]
-    .into_iter()
-    .flatten()
-    {
+    for t in page::metric_tables(m, ctx) {
         table(&mut s, &t);
     }
     paired_grids(&mut s, m, ctx);
@@ -307,6 +297,38 @@ pub(crate) mod tests {
             assert!(md.contains("**reprise, Motion Graphs** tie exactly"), "{md}");
             assert_eq!(overall_cell(&m, ctx, "crossfade", "variety"), "0 (deterministic)");
             assert!(md.contains("not ranked: it rewards noise"), "{md}");
+        });
+    }
+
+    /// The ablation table: the paper's method, each improvement alone, then every one on
+    /// (`reprise`), a row per ranked headline metric with the best marked; no table without
+    /// the ablation's systems.
+    #[test]
+    fn the_ablation_table_brackets_each_improvement() {
+        let sys = systems();
+        let latency = |id: &str, v: f64| metric(id, "perceived_latency_s", "all", "all", &[v, v], "s", 1);
+        let m = vec![
+            latency("reprise-paper", 1.8),
+            latency("reprise-paper-settle", 0.9),
+            latency("reprise-paper-live-idle", 1.7),
+            latency("reprise", 1.0),
+        ];
+        with_ctx(&sys, &m, &[], |ctx| assert!(crate::model::ablation(&m, ctx).is_none()));
+        let ablation: Vec<(String, String)> = ["reprise-paper-live-idle", "reprise-paper-settle"]
+            .iter()
+            .map(|id| (id.to_string(), reprise_benchmark::systems::shown(id).to_string()))
+            .collect();
+        with_ctx(&sys, &m, &[], |ctx| {
+            let ctx = Context { ablation: &ablation, ..ctx.clone() };
+            let t = crate::model::ablation(&m, &ctx).expect("a table");
+            assert_eq!(
+                t.head,
+                ["metric", "reprise (paper)", "paper + live-idle", "paper + settle", "reprise (all on)"]
+            );
+            let row = t.rows.iter().find(|r| r[0].text == "`perceived_latency_s`").expect("the latency row");
+            let best: Vec<bool> = row[1..].iter().map(|c| c.best).collect();
+            assert_eq!(best, [false, false, true, false], "settle alone is the fastest");
+            assert!(row[1].text.starts_with("1.800"), "{}", row[1].text);
         });
     }
 
