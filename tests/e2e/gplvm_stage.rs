@@ -237,11 +237,14 @@ fn transitions_refuses_a_graph_that_does_not_belong(p: &Project) {
         .flat_map(|(flag, file)| [format!("--{flag}"), format!("{A}/{file}.parquet")])
         .collect();
         v.extend(["--mg-edges".into(), edges.into(), "--window".into(), window.into()]);
-        for out in ["requests", "reprise-answers", "reprise-curves", "reprise-reseeded"].into_iter().chain([
-            "motion-graphs-answers",
-            "motion-graphs-curves",
-            "motion-graphs-reseeded",
-        ]) {
+        let reprise = ["reprise", "reprise-paper"].into_iter().flat_map(|s| {
+            ["answers", "curves", "reseeded"].into_iter().map(move |o| format!("{s}-{o}"))
+        });
+        let ablation = ["live-idle", "landing-choice", "settle"]
+            .into_iter()
+            .flat_map(|s| ["answers", "curves"].into_iter().map(move |o| format!("{s}-{o}")));
+        let mg = ["motion-graphs-answers", "motion-graphs-curves", "motion-graphs-reseeded"].map(String::from);
+        for out in std::iter::once("requests".to_string()).chain(reprise).chain(ablation).chain(mg) {
             v.extend([format!("--{out}"), format!("out/t/{out}.parquet")]);
         }
         v
