@@ -237,9 +237,9 @@ fn transitions_refuses_a_graph_that_does_not_belong(p: &Project) {
         .flat_map(|(flag, file)| [format!("--{flag}"), format!("{A}/{file}.parquet")])
         .collect();
         v.extend(["--mg-edges".into(), edges.into(), "--window".into(), window.into()]);
-        let reprise = ["reprise", "reprise-paper"].into_iter().flat_map(|s| {
-            ["answers", "curves", "reseeded"].into_iter().map(move |o| format!("{s}-{o}"))
-        });
+        let reprise = ["reprise", "reprise-paper"]
+            .into_iter()
+            .flat_map(|s| ["answers", "curves", "reseeded"].into_iter().map(move |o| format!("{s}-{o}")));
         let ablation = ["live-idle", "landing-choice", "settle"]
             .into_iter()
             .flat_map(|s| ["answers", "curves"].into_iter().map(move |o| format!("{s}-{o}")));

@@ -162,10 +162,10 @@ impl<'a> Library<'a> {
 /// A model's [`Dynamics`]: the closed-form rule, then IDLE simulated from
 /// [`crate::method::CALIBRATION_STARTS`] training latents and $\alpha$ scaled until the
 /// mean latent speed (after the first half-second) matches the training speed, never above
-/// $(\kappa\,\omega_0^2 r)^2$ ([`crate::method::MAX_FORCE_RATIO`]).
+/// $(\kappa\,\omega_0^2 r)^2$ ([`crate::method::max_random_force`]).
 fn calibrate(model: &LatentModel, frames: &[TrainingFrame], set: &Settings) -> Option<Dynamics> {
-    use crate::method::{CALIBRATION_ROUNDS, CALIBRATION_SECONDS, CALIBRATION_STARTS, MAX_FORCE_RATIO};
-    let max_variance = (MAX_FORCE_RATIO * set.particle.omega0.powi(2) * set.radius).powi(2);
+    use crate::method::{max_random_force, CALIBRATION_ROUNDS, CALIBRATION_SECONDS, CALIBRATION_STARTS};
+    let max_variance = max_random_force(set.particle.omega0, set.radius).powi(2);
     let mut dynamics = Dynamics::from_training(frames, set.fps, set.random_gamma)?;
     dynamics.random_variance = dynamics.random_variance.min(max_variance);
     let set = Settings { method: Method { idle: IdleRule::FromData, ..set.method }, ..*set };
@@ -405,7 +405,10 @@ impl<'l, 'a> Run<'l, 'a> {
         let t0 = self.out.len() as f64 * dt;
         let random = &self.random;
         let (alpha, drag) = self.dynamics(stream.model);
-        let amplitude = alpha.max(0.0).sqrt();
+        let amplitude = match set.method.idle {
+            IdleRule::FromData => alpha.max(0.0).sqrt().min(crate::method::max_random_force(set.particle.omega0, r)),
+            IdleRule::Fixed => alpha.max(0.0).sqrt(),
+        };
         let mut grad = vec![0.0; m.q()];
         let mut rf = vec![0.0; m.q()];
         let mut force = |x: &[f64], v: &[f64], t: f64, out: &mut [f64]| {

@@ -21,7 +21,9 @@
 //!     [`CALIBRATION_SECONDS`] and $\alpha_m$ scaled by $(\bar s_m / \text{measured})^2$,
 //!     [`CALIBRATION_ROUNDS`] times (each factor clamped to $[1/16, 16]$);
 //!   - and at most $\alpha_{\max} = (\kappa\,\omega_0^2 r)^2$ ([`MAX_FORCE_RATIO`] $=\kappa$,
-//!     $r$ the default idle radius): a random force stronger than the path constraint's pull
+//!     $r$ the default idle radius, and in every frame the radius of the disc the particle
+//!     is in, so the force quietens in the tight disc of an approach to a bridge or a
+//!     segment): a random force stronger than the path constraint's pull
 //!     at the disc's edge throws the particle out of the disc, and the constrained
 //!     integration then diverges (measured on dragon-face: `roar` calibrated to
 //!     $\alpha = 3.1\times10^5$ left for $10^{153}$ latent units). A label whose training
@@ -133,6 +135,12 @@ pub const CALIBRATION_ROUNDS: usize = 2;
 /// $\kappa$: the random force's standard deviation per component is at most $\kappa$ times
 /// the constraint's pull $\omega_0^2 r$ at the edge of the default idle disc.
 pub const MAX_FORCE_RATIO: f64 = 1.0;
+/// The largest random-force standard deviation per component in a disc of radius `r`:
+/// $\kappa\,\omega_0^2 r$ ([`MAX_FORCE_RATIO`]), the constraint's pull at the disc's edge.
+pub fn max_random_force(omega0: f64, r: f64) -> f64 {
+    MAX_FORCE_RATIO * omega0 * omega0 * r
+}
+
 /// The longest velocity memory $\tau$ the rule allows (s).
 pub const MAX_MEMORY_SECONDS: f64 = 2.0;
 

@@ -1,6 +1,7 @@
 //! Synthesis cost per frame (a benchmark, not a timed test): particle step (2 RK4 substeps,
 //! density and random forces) plus reconstruction to all 742 controls, for an N = 800,
-//! d = 8, q = 3 model. Run with
+//! d = 8, q = 3 model, under the paper's method and the tuned one (the reference beside it).
+//! Run with
 //! `cargo test --release -p reprise-synth-engine --test synth_timing -- --ignored --nocapture`.
 
 use reprise_numerics::gplvm::{Hyper, LatentModel, LikelihoodConfig, Predictor, RigMap};
@@ -28,18 +29,18 @@ fn cost_per_frame() {
     let frames: Vec<TrainingFrame> = (0..n)
         .map(|i| TrainingFrame { segment: 0, clip: "c".into(), frame: i as i64, x: x[i * q..(i + 1) * q].to_vec() })
         .collect();
-    let s = Settings::default();
-    let lib = Library::new(vec![&model], vec![frames], vec![], &s);
-    let start = Start { label: "m".into(), segment: Some(0), clip: None, frame: Some(0), latent: None };
-    let idle = Command::Idle { duration: 100.0, radius: Some(0.3), poses: vec![], hover: None };
-    let script = Script { name: None, seed: 1, start, commands: vec![idle] };
-    run(&lib, &script, &s).unwrap();
-    let t = std::time::Instant::now();
-    let out = run(&lib, &script, &s).unwrap();
-    let us = t.elapsed().as_secs_f64() * 1e6 / out.len() as f64;
     println!(
-        "| N | d | controls | frames | µs per frame | × real time at 24 fps |\n|---|---|---|---|---|---|\n| {n} | {d} | {c} | {} | {us:.1} | {:.0} |",
-        out.len(),
-        1e6 / 24.0 / us
+        "| method | N | d | controls | frames | µs per frame | × real time at 24 fps |\n|---|---|---|---|---|---|---|"
     );
+    for (name, s) in [("paper", Settings::paper()), ("tuned (default)", Settings::default())] {
+        let lib = Library::new(vec![&model], vec![frames.clone()], vec![], &s);
+        let start = Start { label: "m".into(), segment: Some(0), clip: None, frame: Some(0), latent: None };
+        let idle = Command::Idle { duration: 100.0, radius: Some(0.3), poses: vec![], hover: None };
+        let script = Script { name: None, seed: 1, start, commands: vec![idle] };
+        run(&lib, &script, &s).unwrap();
+        let t = std::time::Instant::now();
+        let out = run(&lib, &script, &s).unwrap();
+        let us = t.elapsed().as_secs_f64() * 1e6 / out.len() as f64;
+        println!("| {name} | {n} | {d} | {c} | {} | {us:.1} | {:.0} |", out.len(), 1e6 / 24.0 / us);
+    }
 }
