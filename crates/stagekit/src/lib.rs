@@ -65,7 +65,7 @@ pub fn main(binary: &str, code_id: &'static str, body: impl FnOnce() -> StageRes
         }
         Ok(Err(e)) => {
             reprise_artifact::table::discard_pending();
-            eprintln!("{binary}: error: {e}");
+            say_whole(&format!("{binary}: error: {e}\n"));
             std::process::exit(e.code())
         }
         Err(_) => {
@@ -74,6 +74,15 @@ pub fn main(binary: &str, code_id: &'static str, body: impl FnOnce() -> StageRes
             std::process::exit(exit::FAILURE)
         }
     }
+}
+
+/// Writes `text` to stderr in one `write` call. `eprintln!` writes a formatted line piece
+/// by piece, and the runner's partitions share one stderr: two stages failing at once
+/// interleaved their messages within a line (`reprise-pcareprise-pca: error: : error: …`).
+/// One write of at most `PIPE_BUF` (4,096) bytes to a pipe is atomic.
+pub fn say_whole(text: &str) {
+    use std::io::Write;
+    let _ = std::io::stderr().lock().write_all(text.as_bytes());
 }
 
 /// This process's peak resident memory (`VmHWM` of `/proc/self/status`), where the OS

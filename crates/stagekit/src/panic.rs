@@ -14,7 +14,7 @@ pub fn install(binary: &str) {
         if reprise_artifact::contain::is_contained() {
             return; // a dependency's panic on bad input, turned into an error by the caller
         }
-        eprintln!("{}", message(&binary, info));
+        crate::say_whole(&format!("{}\n", message(&binary, info)));
         let backtrace = Backtrace::capture();
         if backtrace.status() == BacktraceStatus::Captured {
             eprintln!("{backtrace}");
