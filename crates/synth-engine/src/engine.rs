@@ -171,13 +171,9 @@ fn calibrate(model: &LatentModel, frames: &[TrainingFrame], set: &Settings) -> O
     let set = Settings { method: Method { idle: IdleRule::FromData, ..set.method }, ..*set };
     let skip = (0.5 * set.fps).round() as usize;
     let starts: Vec<usize> = (0..CALIBRATION_STARTS).map(|i| i * frames.len() / CALIBRATION_STARTS).collect();
+    let mut lib = Library { models: vec![model], frames: vec![frames.to_vec()], links: vec![], dynamics: vec![None] };
     for _ in 0..CALIBRATION_ROUNDS {
-        let lib = Library {
-            models: vec![model],
-            frames: vec![frames.to_vec()],
-            links: vec![],
-            dynamics: vec![Some(dynamics)],
-        };
+        lib.dynamics[0] = Some(dynamics);
         let (mut sum, mut count) = (0.0, 0usize);
         for (i, &s) in starts.iter().enumerate() {
             let start = crate::script::Start {

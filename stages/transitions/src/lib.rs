@@ -211,9 +211,7 @@ impl Io {
     /// [`Method::IMPROVEMENTS`]' order, ids as `reprise_benchmark::systems::ABLATION`).
     fn systems(&self) -> Vec<Output<'_>> {
         let paper = Method::PAPER;
-        let improved = |i: usize| Player::Reprise((Method::IMPROVEMENTS[i].apply)(paper));
-        let ablation = reprise_benchmark::systems::ABLATION;
-        vec![
+        let mut v = vec![
             Output {
                 id: "reprise",
                 player: Player::Reprise(Method::TUNED),
@@ -235,28 +233,21 @@ impl Io {
                 curves: &self.motion_graphs_curves,
                 reseeded: Some(&self.motion_graphs_reseeded),
             },
-            Output {
-                id: ablation[0].id,
-                player: improved(0),
-                answers: &self.live_idle_answers,
-                curves: &self.live_idle_curves,
-                reseeded: None,
-            },
-            Output {
-                id: ablation[1].id,
-                player: improved(1),
-                answers: &self.landing_choice_answers,
-                curves: &self.landing_choice_curves,
-                reseeded: None,
-            },
-            Output {
-                id: ablation[2].id,
-                player: improved(2),
-                answers: &self.settle_answers,
-                curves: &self.settle_curves,
-                reseeded: None,
-            },
-        ]
+        ];
+        let files = [
+            (&self.live_idle_answers, &self.live_idle_curves),
+            (&self.landing_choice_answers, &self.landing_choice_curves),
+            (&self.settle_answers, &self.settle_curves),
+        ];
+        let ablation = reprise_benchmark::systems::ABLATION.iter().zip(Method::IMPROVEMENTS).zip(files);
+        v.extend(ablation.map(|((def, improvement), (answers, curves))| Output {
+            id: def.id,
+            player: Player::Reprise((improvement.apply)(paper)),
+            answers,
+            curves,
+            reseeded: None,
+        }));
+        v
     }
 }
 
@@ -568,6 +559,16 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each ablation system's id names the improvement it plays (`reprise-paper-<name>`): the
+    /// benchmark's list and the engine's are in the same order.
+    #[test]
+    fn the_ablation_ids_name_their_improvements() {
+        for (def, improvement) in reprise_benchmark::systems::ABLATION.iter().zip(Method::IMPROVEMENTS) {
+            assert_eq!(def.id, format!("reprise-paper-{}", improvement.name));
+        }
+        assert_eq!(reprise_benchmark::systems::ABLATION.len(), Method::IMPROVEMENTS.len());
+    }
     use reprise_artifact::frames::Frames;
 
     /// Two labels of 40 frames each, one control moving at a constant 1 per frame (a from
