@@ -4,6 +4,8 @@
 //! (`synthesize`, `transitions`).
 #![warn(missing_docs)]
 
+pub mod matching;
+
 use reprise_artifact::{bridges, gplvm};
 use reprise_stagekit::{StageError, StageResult};
 use reprise_synth_engine::engine::{Library, Link, Settings, TrainingFrame};

@@ -93,6 +93,17 @@ pub enum SynthError {
         /// To.
         to: String,
     },
+    /// The frame sink of a [`Synth`] stopped taking frames (a live session moved on).
+    #[error("stopped: the frames' consumer took no more")]
+    Stopped,
+    /// A checkpoint that does not fit the library.
+    #[error("a checkpoint for model {model} with {q} latent dimensions does not fit this library")]
+    BadCheckpoint {
+        /// Its model.
+        model: usize,
+        /// Its latent dimension.
+        q: usize,
+    },
 }
 
 /// A training frame of a model: where it is in the corpus and in latent space.
@@ -275,6 +286,32 @@ impl Default for Settings {
     }
 }
 
+/// What the particle is doing in a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Phase {
+    /// Going to a point: a MOVE's target, an IDLE pose, a bridge, a segment's first frame.
+    Reach,
+    /// Hovering about a point.
+    #[default]
+    Idle,
+    /// A TRANSITION's rig-space blend of two models.
+    Blend,
+    /// Playing a training segment.
+    Play,
+}
+
+impl Phase {
+    /// Its name, lower case.
+    pub fn name(self) -> &'static str {
+        match self {
+            Phase::Reach => "reach",
+            Phase::Idle => "idle",
+            Phase::Blend => "blend",
+            Phase::Play => "play",
+        }
+    }
+}
+
 /// One synthesized frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Frame {
@@ -291,7 +328,30 @@ pub struct Frame {
     pub controls: Vec<f64>,
     /// The command (index in the script) that produced it.
     pub command: usize,
+    /// What the particle was doing.
+    pub phase: Phase,
+    /// The bridge's $x_1$ the particle heads for (while a TRANSITION reaches and blends).
+    pub aim: Option<Vec<f64>>,
 }
+
+/// Where synthesis stands after a frame: enough to resume it there ([`Synth::resume`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Checkpoint {
+    /// Frames produced so far (the next frame's index; the random force's clock).
+    pub frame: usize,
+    /// The current model.
+    pub model: usize,
+    /// The particle's position.
+    pub x: Vec<f64>,
+    /// Its velocity.
+    pub v: Vec<f64>,
+    /// The path point it follows.
+    pub target: Vec<f64>,
+}
+
+/// Where a [`Synth`]'s frames go: each frame with the checkpoint after it; `false` stops
+/// the synthesis ([`SynthError::Stopped`]).
+pub type Sink<'s> = dyn FnMut(Frame, Checkpoint) -> bool + 's;
 
 /// The median latent speed of a model's training data (latent units per second):
 /// $\operatorname{median}\lVert x_{t+1} - x_t\rVert\cdot\text{fps}$ over consecutive frames of
@@ -327,18 +387,111 @@ const ARRIVAL_SLACK: f64 = 1.1;
 /// two particles do not jitter in lockstep.
 const INCOMING_TIME_OFFSET: f64 = 1000.0;
 
-struct Run<'l, 'a> {
+/// A synthesis in progress: the library, the particle and the random force, producing
+/// frames one command at a time into a sink. [`run`] runs a whole script; a live session
+/// executes commands as they come and resumes from a [`Checkpoint`].
+pub struct Synth<'l, 'a> {
     lib: &'l Library<'a>,
     set: Settings,
     /// Speed limit per model (latent units per second).
     speed: Vec<f64>,
     cur: Stream,
-    out: Vec<Frame>,
+    /// Frames produced so far.
+    done: usize,
     random: RandomForce,
     command: usize,
+    phase: Phase,
+    aim: Option<Vec<f64>>,
 }
 
-impl<'l, 'a> Run<'l, 'a> {
+impl std::fmt::Debug for Synth<'_, '_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Synth").field("checkpoint", &self.checkpoint()).finish_non_exhaustive()
+    }
+}
+
+impl<'l, 'a> Synth<'l, 'a> {
+    /// A synthesis at the start pose of `start` (at rest, frame 0), the random force drawn
+    /// from `seed`.
+    ///
+    /// # Errors
+    /// [`SynthError::UnknownLabel`], [`SynthError::BadPose`].
+    pub fn new(
+        lib: &'l Library<'a>,
+        set: &Settings,
+        start: &crate::script::Start,
+        seed: u64,
+    ) -> Result<Self, SynthError> {
+        let q = lib.models.first().map_or(0, |m| m.q());
+        let mut s = Self::blank(lib, set, seed, q);
+        s.cur.model = s.model_index(&start.label)?;
+        let x0 = s.resolve(&start.pose())?;
+        s.cur.state = State::at_rest(&x0);
+        s.cur.target = x0;
+        Ok(s)
+    }
+
+    /// A synthesis resumed at `cp` (the random force drawn from `seed` and read from the
+    /// checkpoint's frame on): the same frames as the synthesis that made the checkpoint
+    /// would have produced from there, given the same commands.
+    ///
+    /// # Errors
+    /// [`SynthError::BadCheckpoint`] if its model or dimensions do not fit the library.
+    pub fn resume(lib: &'l Library<'a>, set: &Settings, seed: u64, cp: &Checkpoint) -> Result<Self, SynthError> {
+        let q = lib.models.first().map_or(0, |m| m.q());
+        let bad = SynthError::BadCheckpoint { model: cp.model, q: cp.x.len() };
+        if cp.model >= lib.models.len() || [&cp.x, &cp.v, &cp.target].iter().any(|v| v.len() != q) {
+            return Err(bad);
+        }
+        let mut s = Self::blank(lib, set, seed, q);
+        s.cur =
+            Stream { model: cp.model, state: State { x: cp.x.clone(), v: cp.v.clone() }, target: cp.target.clone() };
+        s.done = cp.frame;
+        Ok(s)
+    }
+
+    fn blank(lib: &'l Library<'a>, set: &Settings, seed: u64, q: usize) -> Self {
+        let speed = lib
+            .frames
+            .iter()
+            .map(|f| set.speed.or_else(|| typical_speed(f, set.fps).map(|v| v * set.speed_factor)).unwrap_or(1.0))
+            .collect();
+        Self {
+            lib,
+            set: *set,
+            speed,
+            cur: Stream { model: 0, state: State::at_rest(&vec![0.0; q]), target: vec![0.0; q] },
+            done: 0,
+            random: RandomForce::new(q, 1.0, set.random_gamma, set.random_features, seed),
+            command: 0,
+            phase: Phase::Idle,
+            aim: None,
+        }
+    }
+
+    /// Where it stands now.
+    pub fn checkpoint(&self) -> Checkpoint {
+        Checkpoint {
+            frame: self.done,
+            model: self.cur.model,
+            x: self.cur.state.x.clone(),
+            v: self.cur.state.v.clone(),
+            target: self.cur.target.clone(),
+        }
+    }
+
+    /// Runs command `c` (its frames numbered as command `index`) from where the synthesis
+    /// stands, each frame into `sink`.
+    ///
+    /// # Errors
+    /// As the command fails ([`SynthError`]); [`SynthError::Stopped`] when the sink says
+    /// stop. The synthesis then stands where the last frame left it.
+    pub fn execute(&mut self, index: usize, c: &Command, sink: &mut Sink<'_>) -> Result<(), SynthError> {
+        self.command = index;
+        self.aim = None;
+        self.execute_command(c, sink)
+    }
+
     fn label(&self) -> &str {
         &self.lib.models[self.cur.model].label
     }
@@ -398,7 +551,7 @@ impl<'l, 'a> Run<'l, 'a> {
         let m = self.lib.models[stream.model];
         let set = self.set;
         let dt = 1.0 / set.fps;
-        let t0 = self.out.len() as f64 * dt;
+        let t0 = self.done as f64 * dt;
         let random = &self.random;
         let (alpha, drag) = self.dynamics(stream.model);
         let amplitude = match set.method.idle {
@@ -422,24 +575,32 @@ impl<'l, 'a> Run<'l, 'a> {
         self.controls(stream.model, &stream.state.x)
     }
 
-    fn push(&mut self, controls: Vec<f64>) {
+    fn push(&mut self, controls: Vec<f64>, sink: &mut Sink<'_>) -> Result<(), SynthError> {
         let dt = 1.0 / self.set.fps;
-        self.out.push(Frame {
-            frame: self.out.len(),
-            time: (self.out.len() + 1) as f64 * dt,
+        let frame = Frame {
+            frame: self.done,
+            time: (self.done + 1) as f64 * dt,
             model: self.cur.model,
             x: self.cur.state.x.clone(),
             controls,
             command: self.command,
-        });
+            phase: self.phase,
+            aim: self.aim.clone(),
+        };
+        self.done += 1;
+        if sink(frame, self.checkpoint()) {
+            Ok(())
+        } else {
+            Err(SynthError::Stopped)
+        }
     }
 
     /// Steps the current particle one frame toward `next` and records it.
-    fn frame(&mut self, next: &[f64], r: f64) {
+    fn frame(&mut self, next: &[f64], r: f64, sink: &mut Sink<'_>) -> Result<(), SynthError> {
         let mut cur = self.cur.clone();
         let controls = self.step(&mut cur, next, r, 0.0);
         self.cur = cur;
-        self.push(controls);
+        self.push(controls, sink)
     }
 
     fn frames_for(&self, seconds: f64) -> usize {
@@ -457,9 +618,16 @@ impl<'l, 'a> Run<'l, 'a> {
     }
 
     /// Lays the path point along `poly` at the speed limit (or slower, see
-    /// [`Run::step_length`]) with radius `r`, then waits for the particle to arrive within
+    /// [`Synth::step_length`]) with radius `r`, then waits for the particle to arrive within
     /// `r` of the end, moving no faster than the limit; errs after `timeout_seconds`.
-    fn approach(&mut self, poly: &[Vec<f64>], r: f64, min_seconds: Option<f64>, what: &str) -> Result<(), SynthError> {
+    fn approach(
+        &mut self,
+        poly: &[Vec<f64>],
+        r: f64,
+        min_seconds: Option<f64>,
+        what: &str,
+        sink: &mut Sink<'_>,
+    ) -> Result<(), SynthError> {
         let length: f64 = poly.windows(2).map(|w| dist(&w[0], &w[1])).sum();
         let step = self.step_length(length, min_seconds).max(1e-12);
         // A disc smaller than one frame's travel of the path point makes the constraint
@@ -481,7 +649,7 @@ impl<'l, 'a> Run<'l, 'a> {
         }
         if frames > 0 {
             for p in resample(poly, frames) {
-                self.frame(&p, r);
+                self.frame(&p, r, sink)?;
             }
         }
         let limit = self.speed[self.cur.model];
@@ -493,7 +661,7 @@ impl<'l, 'a> Run<'l, 'a> {
             if spent >= budget {
                 return Err(fail(self));
             }
-            self.frame(&end, r);
+            self.frame(&end, r, sink)?;
             spent += 1;
         }
         Ok(())
@@ -506,6 +674,7 @@ impl<'l, 'a> Run<'l, 'a> {
         r: f64,
         min_seconds: Option<f64>,
         what: &str,
+        sink: &mut Sink<'_>,
     ) -> Result<(), SynthError> {
         let m = self.lib.models[self.cur.model];
         let from = self.cur.target.clone();
@@ -513,13 +682,14 @@ impl<'l, 'a> Run<'l, 'a> {
             PathKind::Straight => vec![from, to.to_vec()],
             PathKind::Graph => graph_path(m.predictor.x(), m.q(), &from, to, self.set.graph_k, self.set.graph_cost),
         };
-        self.approach(&poly, r, min_seconds, what)
+        self.approach(&poly, r, min_seconds, what, sink)
     }
 
-    fn hold(&mut self, at: &[f64], frames: usize, r: f64) {
+    fn hold(&mut self, at: &[f64], frames: usize, r: f64, sink: &mut Sink<'_>) -> Result<(), SynthError> {
         for _ in 0..frames {
-            self.frame(at, r);
+            self.frame(at, r, sink)?;
         }
+        Ok(())
     }
 
     /// The bridge from the current model to model `to` the method chooses: the nearest
@@ -539,11 +709,13 @@ impl<'l, 'a> Run<'l, 'a> {
 
     /// Reach the chosen bridge to `to`, then blend the two live streams over `blend`
     /// frames while both particles idle at the bridge's ends; returns the bridge.
-    fn switch(&mut self, to: usize, blend: usize) -> Result<Link, SynthError> {
+    fn switch(&mut self, to: usize, blend: usize, sink: &mut Sink<'_>) -> Result<Link, SynthError> {
         let (from, target) = (self.label().to_string(), self.lib.models[to].label.clone());
         let link = self.best_link(to).cloned().ok_or(SynthError::NoBridge { from, to: target.clone() })?;
         let r = self.set.tight_radius;
-        self.go(&link.x1, PathKind::Straight, r, None, &format!("the bridge to `{target}`"))?;
+        (self.phase, self.aim) = (Phase::Reach, Some(link.x1.clone()));
+        self.go(&link.x1, PathKind::Straight, r, None, &format!("the bridge to `{target}`"), sink)?;
+        self.phase = Phase::Blend;
         let mut old = self.cur.clone();
         let mut new = Stream { model: to, state: State::at_rest(&link.x2), target: link.x2.clone() };
         let (ra, rb) = (r.max(self.speed[old.model] / self.set.fps), r.max(self.speed[to] / self.set.fps));
@@ -553,9 +725,10 @@ impl<'l, 'a> Run<'l, 'a> {
             let s = (f + 1) as f64 / blend as f64;
             let w = s * s * (3.0 - 2.0 * s);
             self.cur = new.clone();
-            self.push(a.iter().zip(&b).map(|(a, b)| (1.0 - w) * a + w * b).collect());
+            self.push(a.iter().zip(&b).map(|(a, b)| (1.0 - w) * a + w * b).collect(), sink)?;
         }
         self.cur = new;
+        self.aim = None;
         Ok(link)
     }
 
@@ -581,7 +754,7 @@ impl<'l, 'a> Run<'l, 'a> {
             .ok_or(SynthError::NoBridge { from: a.into(), to: b.into() })
     }
 
-    fn execute(&mut self, c: &Command) -> Result<(), SynthError> {
+    fn execute_command(&mut self, c: &Command, sink: &mut Sink<'_>) -> Result<(), SynthError> {
         match c {
             Command::Idle { duration, radius, poses, hover } => {
                 let r = radius.unwrap_or(self.set.radius);
@@ -592,34 +765,38 @@ impl<'l, 'a> Run<'l, 'a> {
                     poses.iter().map(|p| self.resolve(p)).collect::<Result<_, _>>()?
                 };
                 let per = hover.map_or(total.div_ceil(points.len()), |h| self.frames_for(h));
-                let start = self.out.len();
+                let start = self.done;
                 for p in points.iter().cycle() {
-                    let done = self.out.len() - start;
+                    let done = self.done - start;
                     if done >= total {
                         break;
                     }
                     if dist(p, &self.cur.target) > 1e-12 {
-                        self.go(p, PathKind::Straight, r, None, "an idle pose")?;
+                        self.phase = Phase::Reach;
+                        self.go(p, PathKind::Straight, r, None, "an idle pose", sink)?;
                     }
-                    let done = self.out.len() - start;
-                    self.hold(p, per.min(total.saturating_sub(done)).max(1), r);
+                    let done = self.done - start;
+                    self.phase = Phase::Idle;
+                    self.hold(p, per.min(total.saturating_sub(done)).max(1), r, sink)?;
                 }
             }
             Command::Move { to, duration, path, radius } => {
                 let x = self.resolve(to)?;
                 let r = radius.unwrap_or(self.set.radius);
-                self.go(&x, *path, r, Some(*duration), "the move's target")?;
+                self.phase = Phase::Reach;
+                self.go(&x, *path, r, Some(*duration), "the move's target", sink)?;
             }
             Command::Transition { to, blend_frames } => {
                 let to = self.model_index(to)?;
                 if to != self.cur.model {
                     let mut last = None;
                     for hop in self.route(to)? {
-                        last = Some(self.switch(hop, blend_frames.unwrap_or(self.set.blend_frames).max(1))?);
+                        last = Some(self.switch(hop, blend_frames.unwrap_or(self.set.blend_frames).max(1), sink)?);
                     }
                     if let Some(landing) = last.and_then(|l| l.landing).filter(|_| self.set.method.settle) {
                         let what = "the target label's training pose nearest the landing";
-                        self.go(&landing.x, PathKind::Straight, self.set.radius, None, what)?;
+                        self.phase = Phase::Reach;
+                        self.go(&landing.x, PathKind::Straight, self.set.radius, None, what, sink)?;
                     }
                 }
             }
@@ -642,7 +819,9 @@ impl<'l, 'a> Run<'l, 'a> {
                 let mut seq: Vec<&TrainingFrame> = frames.iter().copied().filter(|f| f.segment == seg).collect();
                 seq.sort_by_key(|f| f.frame);
                 let xs: Vec<Vec<f64>> = seq.iter().map(|f| f.x.clone()).collect();
-                self.go(&xs[0], PathKind::Straight, self.set.tight_radius, None, "the segment's first frame")?;
+                self.phase = Phase::Reach;
+                self.go(&xs[0], PathKind::Straight, self.set.tight_radius, None, "the segment's first frame", sink)?;
+                self.phase = Phase::Play;
                 // Play the embedding itself, one training frame per output frame: the
                 // particle is carried along it (position and velocity), not pulled by the
                 // constraint — a disc small enough to track the embedding is outrun by its
@@ -654,7 +833,7 @@ impl<'l, 'a> Run<'l, 'a> {
                     self.cur.state = State { x: w[1].clone(), v };
                     self.cur.target = w[1].clone();
                     let controls = self.controls(self.cur.model, &w[1]);
-                    self.push(controls);
+                    self.push(controls, sink)?;
                 }
             }
         }
@@ -664,30 +843,16 @@ impl<'l, 'a> Run<'l, 'a> {
 
 /// Runs a script: one frame per $1/\text{fps}$ seconds from its start pose.
 pub fn run(lib: &Library<'_>, script: &Script, set: &Settings) -> Result<Vec<Frame>, SynthError> {
-    let q = lib.models.first().map_or(0, |m| m.q());
-    let speed = lib
-        .frames
-        .iter()
-        .map(|f| set.speed.or_else(|| typical_speed(f, set.fps).map(|v| v * set.speed_factor)).unwrap_or(1.0))
-        .collect();
-    let mut run = Run {
-        lib,
-        set: *set,
-        speed,
-        cur: Stream { model: 0, state: State::at_rest(&vec![0.0; q]), target: vec![0.0; q] },
-        out: Vec::new(),
-        random: RandomForce::new(q, 1.0, set.random_gamma, set.random_features, script.seed),
-        command: 0,
+    let mut synth = Synth::new(lib, set, &script.start, script.seed)?;
+    let mut out = Vec::new();
+    let mut sink = |f: Frame, _: Checkpoint| {
+        out.push(f);
+        true
     };
-    run.cur.model = run.model_index(&script.start.label)?;
-    let x0 = run.resolve(&script.start.pose())?;
-    run.cur.state = State::at_rest(&x0);
-    run.cur.target = x0;
     for (i, c) in script.commands.iter().enumerate() {
-        run.command = i;
-        run.execute(c)?;
+        synth.execute(i, c, &mut sink)?;
     }
-    Ok(run.out)
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -751,6 +916,49 @@ mod tests {
             assert_eq!(a, b);
             assert_ne!(a, c);
             assert_eq!(a.len(), 48);
+        });
+    }
+
+    /// Stopping a synthesis after any frame and resuming from that frame's checkpoint with
+    /// the rest of the work gives the frames the uninterrupted run gives, bit for bit (the
+    /// random force reads the checkpoint's clock); a stopped sink stops it, and a
+    /// checkpoint for another library is refused.
+    #[test]
+    fn a_synthesis_resumed_from_a_checkpoint_goes_on_as_if_never_stopped() {
+        let links = vec![link("a", "b", [0.8, 1.27], [0.8, 1.27])];
+        let idle =
+            |frames: usize| Command::Idle { duration: frames as f64 / 24.0, radius: None, poses: vec![], hover: None };
+        with_lib(links, |lib| {
+            let set = Settings::default();
+            let start = script(vec![], 9).start;
+            let whole =
+                run(lib, &script(vec![idle(30), Command::Transition { to: "b".into(), blend_frames: None }], 9), &set)
+                    .unwrap();
+            assert!(whole.iter().any(|f| f.phase == Phase::Blend && f.aim.is_some()), "phases are marked");
+            for stop in [1, 7, 29] {
+                let mut synth = Synth::new(lib, &set, &start, 9).unwrap();
+                let (mut got, mut at) = (Vec::new(), None);
+                let mut sink = |f: Frame, cp: Checkpoint| {
+                    got.push(f);
+                    at = Some(cp);
+                    got.len() < stop
+                };
+                assert_eq!(synth.execute(0, &idle(30), &mut sink), Err(SynthError::Stopped));
+                let cp = at.unwrap();
+                assert_eq!(cp.frame, stop);
+                let mut resumed = Synth::resume(lib, &set, 9, &cp).unwrap();
+                let mut sink = |f: Frame, _: Checkpoint| {
+                    got.push(f);
+                    true
+                };
+                resumed.execute(0, &idle(30 - stop), &mut sink).unwrap();
+                resumed.execute(1, &Command::Transition { to: "b".into(), blend_frames: None }, &mut sink).unwrap();
+                assert_eq!(got, whole, "stopped after {stop} frames");
+            }
+            let cp = Checkpoint { frame: 0, model: 5, x: vec![0.0; 2], v: vec![0.0; 2], target: vec![0.0; 2] };
+            assert!(matches!(Synth::resume(lib, &set, 9, &cp), Err(SynthError::BadCheckpoint { .. })));
+            let cp = Checkpoint { model: 0, x: vec![0.0; 3], ..cp };
+            assert!(matches!(Synth::resume(lib, &set, 9, &cp), Err(SynthError::BadCheckpoint { .. })));
         });
     }
 

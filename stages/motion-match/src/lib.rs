@@ -28,19 +28,14 @@
 //! depends on ($w_j = 0$) is carried with $w_j = 10^{-3}\min_{w_i>0} w_i$ so every output
 //! unscales exactly.
 
-use std::collections::HashMap;
-
 use clap::Parser;
 use rand::{Rng, SeedableRng};
 use reprise_artifact::curves;
 use reprise_artifact::frames::LabeledFrames;
 use reprise_artifact::scales;
 use reprise_artifact::transitions::{self, Answer, Request};
-use reprise_matching::{
-    crossfade, crossfade_blend, transition, ControllerSettings, Database, FeatureDb, FeatureParams, MatchError,
-    Playback, TransitionRequest,
-};
-use reprise_numerics::pca::{Pca, PcaParams};
+use reprise_matching::{crossfade, transition, ControllerSettings, MatchError, Playback, TransitionRequest};
+use reprise_model_library::matching::Corpus;
 use reprise_stagekit::{StageError, StageResult};
 use serde::Serialize;
 
@@ -139,130 +134,23 @@ impl Args {
     }
 }
 
-/// The database: labeled frames as scaled controls, with the weights that unscale them.
-struct Corpus {
-    db: Database,
-    feats: FeatureDb,
-    weight: Vec<f64>,
-    labels: Vec<String>,
-    /// Row of (segment id, frame).
-    rows: HashMap<(i64, i64), usize>,
-}
-
-impl Corpus {
-    fn build(args: &Args, labeled: &LabeledFrames, weight: Vec<f64>) -> StageResult<Self> {
-        let n = labeled.frames.rows();
-        let c = labeled.frames.controls.len();
-        let smallest = weight.iter().copied().filter(|w| *w > 0.0).fold(f64::INFINITY, f64::min);
-        if !smallest.is_finite() {
-            return Err(StageError::Input(format!(
-                "{}: no control has a positive scale weight (the mesh depends on none); rerun scale",
-                args.io.scales.display()
-            )));
-        }
-        let weight: Vec<f64> = weight.iter().map(|&w| if w > 0.0 { w } else { 1e-3 * smallest }).collect();
-        let z: Vec<f64> = (0..n)
-            .flat_map(|r| labeled.frames.row(r).iter().zip(&weight).map(|(p, w)| p * w).collect::<Vec<_>>())
-            .collect();
-        let mut labels: Vec<String> = Vec::new();
-        let label_ids: Vec<u32> = labeled
-            .label
-            .iter()
-            .map(|l| match labels.iter().position(|x| x == l) {
-                Some(i) => i as u32,
-                None => {
-                    labels.push(l.clone());
-                    (labels.len() - 1) as u32
-                }
-            })
-            .collect();
-        let mut segments = vec![0u32; n];
-        for (i, &(s, e)) in labeled.segment_runs().iter().enumerate() {
-            segments[s..e].iter_mut().for_each(|v| *v = i as u32);
-        }
-        let bad = |e: MatchError| StageError::Input(format!("{}: {e}", args.io.labeled_frames.display()));
-        let db = Database::new(z.clone(), c, label_ids, &segments, labeled.frames.fps).map_err(bad)?;
-        let params = PcaParams { variance: 1.0, min_components: 1, max_components: args.features };
-        let pca = Pca::fit(&z, c, &params).map_err(|e| StageError::Input(format!("feature PCA: {e}")))?;
-        let q = pca.kept;
-        let y: Vec<f64> = z.chunks_exact(c).flat_map(|row| pca.project(row, q)).collect();
-        let feats = FeatureDb::build(&db, &y, q, &FeatureParams::default()).map_err(bad)?;
-        let rows = (0..n).map(|r| ((labeled.segment_id[r], labeled.frames.frame[r]), r)).collect();
-        Ok(Self { db, feats, weight, labels, rows })
-    }
-
-    /// Controls $p = z / w$ of a scaled row.
-    fn unscale(&self, z: &[f64]) -> Vec<f64> {
-        z.iter().zip(&self.weight).map(|(z, w)| z / w).collect()
-    }
-
-    /// The label's name in backquotes (the matching library knows labels by index).
-    fn name(&self, l: u32) -> String {
-        self.labels.get(l as usize).map_or_else(|| l.to_string(), |n| format!("`{n}`"))
-    }
-
-    /// One line per label whose clips are all too short for a system's full window (motion
-    /// matching's continuation, the crossfade's `blend_frames`), naming the window it gets
-    /// instead ([`FeatureDb::continuation_of`], [`crossfade_blend`]). A label of one-frame
-    /// clips gets none: its requests fail and say why.
-    fn short_windows(&self, blend_frames: usize) -> Vec<String> {
-        let full = self.feats.continuation();
-        let mut lines = Vec::new();
-        for label in self.db.label_ids() {
-            let mut parts = Vec::new();
-            if let Some(c) = self.feats.continuation_of(label).filter(|&c| c < full) {
-                parts.push(format!("searched with a {c}-frame continuation instead of {full}"));
-            }
-            if let Some(k) = crossfade_blend(&self.db, label, blend_frames).filter(|&k| k < blend_frames) {
-                parts.push(format!("crossfaded into over {k} frames instead of {blend_frames}"));
-            }
-            if let (false, Some(r)) = (parts.is_empty(), self.db.longest_continuation(label)) {
-                lines.push(format!(
-                    "motion-match: label {} (clips of at most {} frames) is {}",
-                    self.name(label),
-                    r + 1,
-                    parts.join(" and ")
-                ));
-            }
-        }
-        lines
-    }
-
-    /// Why a request failed, the label named.
-    fn why(&self, e: MatchError) -> String {
-        let name = |l: u32| self.name(l);
-        match e {
-            MatchError::NoSearchableFrames { label, needed } => format!(
-                "label {} has no frame to jump to: a frame needs {needed} frame{} of continuation in its segment, \
-                 and its segments are shorter",
-                name(label),
-                if needed == 1 { "" } else { "s" }
-            ),
-            MatchError::DeadEnd { frame, label } => format!(
-                "playback reached the end of its segment at frame {frame} and no frame of label {} could take over",
-                name(label)
-            ),
-            e => e.to_string(),
-        }
-    }
-
-    /// A playback as an answer: the start frame (asked), then the output up to `after`
-    /// frames past the first frame of B; none if B was not reached.
-    fn reply(&self, start: usize, out: Result<Playback, MatchError>, after: usize, to: &str) -> Reply {
-        let out = match out {
-            Ok(p) => p,
-            Err(e) => return (Answer::failed(self.why(e)), vec![]),
-        };
-        let Some(l) = out.latency else {
-            return (Answer::failed(format!("did not reach `{to}` within the time-out")), vec![]);
-        };
-        let end = (l + after).min(out.len());
-        let mut frames = vec![(self.labels[self.db.label(start) as usize].clone(), self.unscale(self.db.row(start)))];
-        frames.extend((0..end).map(|k| {
-            (self.labels[out.labels[k] as usize].clone(), self.unscale(&out.z[k * out.dim..(k + 1) * out.dim]))
-        }));
-        (Answer::reached(0, l as i64 + 1), frames)
-    }
+/// A playback as an answer: the start frame (asked), then the output up to `after`
+/// frames past the first frame of B; none if B was not reached.
+fn reply(corpus: &Corpus, start: usize, out: Result<Playback, MatchError>, after: usize, to: &str) -> Reply {
+    let out = match out {
+        Ok(p) => p,
+        Err(e) => return (Answer::failed(corpus.why(e)), vec![]),
+    };
+    let Some(l) = out.latency else {
+        return (Answer::failed(format!("did not reach `{to}` within the time-out")), vec![]);
+    };
+    let end = (l + after).min(out.len());
+    let mut frames =
+        vec![(corpus.labels[corpus.db.label(start) as usize].clone(), corpus.unscale(corpus.db.row(start)))];
+    frames.extend((0..end).map(|k| {
+        (corpus.labels[out.labels[k] as usize].clone(), corpus.unscale(&out.z[k * out.dim..(k + 1) * out.dim]))
+    }));
+    (Answer::reached(0, l as i64 + 1), frames)
 }
 
 /// Runs the stage; returns the requests with both systems' answers.
@@ -275,7 +163,7 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
     let labeled = LabeledFrames::read(&args.io.labeled_frames)?;
     let weight = scales::mean_weights(&scales::read(&args.io.scales)?, &labeled.frames.controls);
     let reqs = transitions::read_requests(&args.io.requests)?;
-    let corpus = Corpus::build(args, &labeled, weight)?;
+    let corpus = Corpus::build(&labeled, &args.io.labeled_frames, &args.io.scales, weight, args.features)?;
     for line in corpus.short_windows(args.blend_frames) {
         eprintln!("{line}");
     }
@@ -314,8 +202,9 @@ pub fn run(args: &Args) -> StageResult<Option<Answered>> {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed.wrapping_add(r.request as u64));
         let first_search = rng.gen_range(0..interval);
         let request = TransitionRequest { start, target, first_search, frames: timeout };
-        let mm = corpus.reply(start, transition(&corpus.db, &corpus.feats, &request, &settings), after, &r.to);
-        let fade = corpus.reply(start, crossfade(&corpus.db, start, target, args.blend_frames, timeout), after, &r.to);
+        let mm = reply(&corpus, start, transition(&corpus.db, &corpus.feats, &request, &settings), after, &r.to);
+        let fade =
+            reply(&corpus, start, crossfade(&corpus.db, start, target, args.blend_frames, timeout), after, &r.to);
         bar.inc(1);
         Ok((r.clone(), [mm, fade]))
     };
@@ -452,7 +341,7 @@ mod tests {
     fn corpus(args: &Args) -> Corpus {
         let labeled = LabeledFrames::read(&args.io.labeled_frames).unwrap();
         let weight = scales::mean_weights(&scales::read(&args.io.scales).unwrap(), &labeled.frames.controls);
-        Corpus::build(args, &labeled, weight).unwrap()
+        Corpus::build(&labeled, &args.io.labeled_frames, &args.io.scales, weight, args.features).unwrap()
     }
 
     /// A label of one-frame clips cannot be jumped into: both systems fail its requests,
