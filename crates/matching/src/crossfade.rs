@@ -78,41 +78,148 @@ pub fn nearest_pose(db: &Database, pose: &[f64], candidates: &FrameSet) -> Resul
 /// [`MatchError::FrameOutOfRange`], [`MatchError::NoSearchableFrames`] if `target` has no
 /// frame with a next frame in its segment (no frame, or only one-frame segments).
 pub fn crossfade(db: &Database, start: usize, target: u32, blend_frames: usize, frames: usize) -> Result<Playback> {
-    db.check_frame(start)?;
-    let none = MatchError::NoSearchableFrames { label: target, needed: 1 };
-    let blend_frames = crossfade_blend(db, target, blend_frames).ok_or_else(|| none.clone())?;
-    let candidates = crossfade_candidates(db, target, blend_frames);
-    let pick = |from: usize| -> Result<usize> {
-        let m = nearest_pose(db, db.row(from), &candidates)?;
-        m.map(|m| m.frame + 1).ok_or_else(|| none.clone())
-    };
-    let mut out = Playback::new(db.dim(), target, blend_frames, frames);
+    let mut fade = Crossfader::new(db, start, target, blend_frames)?;
+    let mut out = Playback::new(db.dim(), target, fade.blend_frames(), frames);
     let mut row = vec![0.0; db.dim()];
-    // `a`: the frame being left; `b`: the target frame playing; `p`: frames into the blend.
-    let (mut a, mut b, mut p) = (start, pick(start)?, 0);
     for _ in 0..frames {
-        let alpha = if p < blend_frames {
-            if db.has_next(a) {
-                a += 1;
+        let f = fade.step(&mut row)?;
+        out.push(&row, f.frame, f.label, f.switch, f.source_weight);
+    }
+    Ok(out)
+}
+
+/// A crossfade played one frame at a time: [`crossfade`]'s rule, and a live character's
+/// (which may be sent to another label, or into a take, whenever no blend is under way).
+#[derive(Debug, Clone)]
+pub struct Crossfader<'a> {
+    db: &'a Database,
+    target: u32,
+    blend_frames: usize,
+    candidates: FrameSet,
+    /// The frame being left.
+    a: usize,
+    /// The frame of the target playing.
+    b: usize,
+    /// Frames into the blend.
+    p: usize,
+}
+
+/// One frame of a [`Crossfader`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FadeFrame {
+    /// The database frame playing (the destination's, during a blend).
+    pub frame: usize,
+    /// Its label.
+    pub label: u32,
+    /// Whether a crossfade started at this frame.
+    pub switch: bool,
+    /// Weight still on the frame being left, $\alpha(p)$ (0 after the blend).
+    pub source_weight: f64,
+}
+
+impl<'a> Crossfader<'a> {
+    /// A crossfade from `start` (shown) into label `target`.
+    ///
+    /// # Errors
+    /// As [`crossfade`].
+    pub fn new(db: &'a Database, start: usize, target: u32, blend_frames: usize) -> Result<Self> {
+        db.check_frame(start)?;
+        let mut fade =
+            Self { db, target, blend_frames: 0, candidates: FrameSet::empty(db.len()), a: start, b: start, p: 0 };
+        fade.retarget(target, blend_frames)?;
+        Ok(fade)
+    }
+
+    /// A crossfader playing on from `start` (shown) in its take, as if a crossfade into
+    /// label `target` (`start`'s own) had just ended.
+    ///
+    /// # Errors
+    /// As [`crossfade`]; [`MatchError::FrameOutOfRange`] if `start` is its take's last frame.
+    pub fn playing(db: &'a Database, start: usize, target: u32, blend_frames: usize) -> Result<Self> {
+        let mut fade = Self::new(db, start, target, blend_frames)?;
+        if !db.has_next(start) {
+            return Err(MatchError::FrameOutOfRange { frame: start + 1, n: db.segment_end(start) });
+        }
+        (fade.a, fade.b, fade.p) = (start, start + 1, fade.blend_frames);
+        Ok(fade)
+    }
+
+    /// The blend used, frames ([`crossfade_blend`]).
+    pub fn blend_frames(&self) -> usize {
+        self.blend_frames
+    }
+
+    /// The label it plays or blends into.
+    pub fn target(&self) -> u32 {
+        self.target
+    }
+
+    /// Whether a blend is under way (the next frame is one of its frames).
+    pub fn blending(&self) -> bool {
+        self.p < self.blend_frames
+    }
+
+    /// A new crossfade, from the frame shown last, into label `target`.
+    ///
+    /// # Errors
+    /// [`MatchError::NoSearchableFrames`] if `target` has no frame with a next frame in its
+    /// segment; the crossfade goes on as before.
+    pub fn retarget(&mut self, target: u32, blend_frames: usize) -> Result<()> {
+        let none = MatchError::NoSearchableFrames { label: target, needed: 1 };
+        let blend = crossfade_blend(self.db, target, blend_frames).ok_or(none.clone())?;
+        let candidates = crossfade_candidates(self.db, target, blend);
+        let shown = self.b;
+        let m = nearest_pose(self.db, self.db.row(shown), &candidates)?.ok_or(none)?;
+        (self.target, self.blend_frames, self.candidates) = (target, blend, candidates);
+        (self.a, self.b, self.p) = (shown, m.frame + 1, 0);
+        Ok(())
+    }
+
+    /// A new crossfade, from the frame shown last, into database frame `frame` (a take's
+    /// first frame, say); it then plays on as a crossfade into that frame's label.
+    ///
+    /// # Errors
+    /// [`MatchError::FrameOutOfRange`]; as [`Crossfader::retarget`] for its label.
+    pub fn fade_to_frame(&mut self, frame: usize, blend_frames: usize) -> Result<()> {
+        self.db.check_frame(frame)?;
+        self.retarget(self.db.label(frame), blend_frames)?;
+        self.b = frame;
+        Ok(())
+    }
+
+    /// The next frame's scaled controls into `row` (`dim` values).
+    ///
+    /// # Errors
+    /// [`MatchError::NoSearchableFrames`] if a segment end finds no frame to chain into
+    /// (it cannot: the candidates were not empty when the target was set).
+    pub fn step(&mut self, row: &mut [f64]) -> Result<FadeFrame> {
+        let db = self.db;
+        let (k, p) = (self.blend_frames, self.p);
+        let source_weight = if p < k {
+            if db.has_next(self.a) {
+                self.a += 1;
             }
-            let alpha = blend_weight(p as f64, blend_frames);
-            for ((o, za), zb) in row.iter_mut().zip(db.row(a)).zip(db.row(b)) {
+            let alpha = blend_weight(p as f64, k);
+            for ((o, za), zb) in row.iter_mut().zip(db.row(self.a)).zip(db.row(self.b)) {
                 *o = alpha * za + (1.0 - alpha) * zb;
             }
             alpha
         } else {
-            row.copy_from_slice(db.row(b));
+            row.copy_from_slice(db.row(self.b));
             0.0
         };
-        out.push(&row, b, db.label(b), p == 0, alpha);
-        p += 1;
-        if db.has_next(b) {
-            b += 1;
+        let frame = FadeFrame { frame: self.b, label: db.label(self.b), switch: p == 0, source_weight };
+        self.p += 1;
+        if db.has_next(self.b) {
+            self.b += 1;
         } else {
-            (a, b, p) = (b, pick(b)?, 0);
+            // The same rule chains a new crossfade from the held last frame.
+            let none = MatchError::NoSearchableFrames { label: self.target, needed: 1 };
+            let m = nearest_pose(db, db.row(self.b), &self.candidates)?.ok_or(none)?;
+            (self.a, self.b, self.p) = (self.b, m.frame + 1, 0);
         }
+        Ok(frame)
     }
-    Ok(out)
 }
 
 #[cfg(test)]

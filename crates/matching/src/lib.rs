@@ -49,7 +49,7 @@ pub mod spring;
 mod testutil;
 
 pub use controller::{transition, Controller, ControllerSettings, StepInfo, TransitionRequest};
-pub use crossfade::{crossfade, crossfade_blend, crossfade_candidates, nearest_pose};
+pub use crossfade::{crossfade, crossfade_blend, crossfade_candidates, nearest_pose, Crossfader, FadeFrame};
 pub use database::{Database, FrameSet};
 pub use error::{MatchError, Result};
 pub use features::{FeatureDb, FeatureGroup, FeatureParams, GroupKind};

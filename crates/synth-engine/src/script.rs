@@ -31,10 +31,10 @@
 //! A pose names a training frame of the current label by `segment` (id) or `clip`, and
 //! `frame` (the clip's frame number), or a latent point directly (`latent`).
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// A pose in the current label.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Pose {
     /// Segment id.
@@ -71,7 +71,7 @@ impl Start {
 }
 
 /// How MOVE goes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize, Default)]
 #[serde(rename_all = "kebab-case")]
 pub enum PathKind {
     /// Shortest path through the training points (cost ‖Δ‖^p).

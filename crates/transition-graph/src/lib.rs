@@ -32,6 +32,56 @@ pub fn blend_weight(p: f64, k: usize) -> f64 {
     2.0 * s * s * s - 3.0 * s * s + 1.0
 }
 
+/// One frame a Motion Graphs path plays.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PathFrame {
+    /// A node's own frame.
+    Node(usize),
+    /// A transition's blended frame $\alpha\,z_a + (1-\alpha)\,z_b$, blending into node
+    /// `into` (the transition's destination).
+    Blend {
+        /// The frame being left ($A_{i+p}$).
+        a: usize,
+        /// The frame blended into ($B_{j-k+1+p}$).
+        b: usize,
+        /// $\alpha(p)$, the weight on `a`.
+        weight: f64,
+        /// The transition's destination node.
+        into: usize,
+    },
+}
+
+impl PathFrame {
+    /// The node whose label the frame shows (a blend shows its destination's).
+    pub fn node(&self) -> usize {
+        match *self {
+            PathFrame::Node(v) => v,
+            PathFrame::Blend { into, .. } => into,
+        }
+    }
+}
+
+/// Appends to `queue` (frames planned but not yet shown) the frames path `path` plays:
+/// each edge's destination frame, a transition edge $A_i \to B_{j+1}$ (`ends(e)` =
+/// (from, to, is a transition)) first playing the $k$ blended frames
+/// $\alpha(p)\,z^A_{i+p} + (1-\alpha(p))\,z^B_{j-k+1+p}$ that replace $A_i \dots A_{i+k-1}$
+/// (method.md §5.3). $A_i$ gives way to the first of them when it is still queued; when it
+/// was shown already (the queue is empty), the blend starts at $p = 1$: its $p = 0$ twin,
+/// still almost all $A_i$, would only stall the motion.
+pub fn play_path(queue: &mut Vec<PathFrame>, path: &[usize], ends: impl Fn(usize) -> (usize, usize, bool), k: usize) {
+    for &e in path {
+        let (from, dest, transition) = ends(e);
+        if transition {
+            let first = if queue.pop().is_some() { 0 } else { 1 };
+            for p in first..k {
+                let weight = blend_weight(p as f64, k);
+                queue.push(PathFrame::Blend { a: from + p, b: dest - k + p, weight, into: dest });
+            }
+        }
+        queue.push(PathFrame::Node(dest));
+    }
+}
+
 /// $D(i,j)$ for motions `a` (`na × dim`, row-major) and `b` (`nb × dim`) with window
 /// `k`, row-major `na × nb`; entries whose windows leave either motion ($i + k > n_a$ or
 /// $j + 1 < k$) are `+∞`. With `dim = 0` (no controls) the motions have no frames and the result is

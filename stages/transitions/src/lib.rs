@@ -30,7 +30,7 @@ use reprise_stagekit::{StageError, StageResult};
 use reprise_synth_engine::engine::{self, Settings};
 use reprise_synth_engine::method::Method;
 use reprise_synth_engine::script::{Command, Script, Start};
-use reprise_transition_graph::{blend_weight, Graph};
+use reprise_transition_graph::{play_path, Graph, PathFrame};
 use serde::Serialize;
 
 reprise_stagekit::stage_io! {
@@ -275,30 +275,29 @@ impl Baseline<'_> {
         let (_, path) = g
             .near_shortest_to(at, alive, |v| labeled.label[v] == to, slack, seed)
             .ok_or_else(|| format!("no path to `{to}` in the motion graph"))?;
-        for &e in &path {
-            let edge = &edges[e];
-            let (from, dest) = (edge.from as usize, edge.to as usize);
-            if edge.kind == "transition" {
-                // The k blended frames replace A_i … A_{i+k−1} (method.md §5.3): A_i, just
-                // played, gives way to the first of them — unless it is the request's own
-                // frame, already shown, whose blended twin (p = 0, still almost all A_i)
-                // would only stall the motion.
-                let first = if out.len() == 1 { 1 } else { 0 };
-                if first == 0 {
-                    out.pop();
-                }
-                for p in first..k {
-                    let (a, b) = (row(from + p), row(dest - k + p));
-                    let w = blend_weight(p as f64, k);
-                    out.push(PlayedFrame::clip(
-                        &labeled.label[dest],
-                        a.iter().zip(&b).map(|(x, y)| w * x + (1.0 - w) * y).collect(),
-                    ));
-                }
-            }
-            out.push(PlayedFrame::clip(&labeled.label[dest], row(dest)));
-            at = dest;
+        // Frames walked into the component are still queued: a transition from the last
+        // of them replaces it, one from the start frame (shown) does not.
+        let mut queue: Vec<PathFrame> = Vec::new();
+        if out.len() > 1 {
+            out.pop();
+            queue.push(PathFrame::Node(at));
         }
+        play_path(
+            &mut queue,
+            &path,
+            |e| (edges[e].from as usize, edges[e].to as usize, edges[e].kind == "transition"),
+            k,
+        );
+        for f in &queue {
+            let controls = match *f {
+                PathFrame::Node(v) => row(v),
+                PathFrame::Blend { a, b, weight, .. } => {
+                    row(a).iter().zip(row(b)).map(|(x, y)| weight * x + (1.0 - weight) * y).collect()
+                }
+            };
+            out.push(PlayedFrame::clip(&labeled.label[f.node()], controls));
+        }
+        at = queue.last().map_or(at, PathFrame::node);
         // Play on in B while its motion continues.
         for _ in 0..hold {
             match g.adj[at].iter().find(|&&(w, _, id)| edges[id].kind == "next" && alive[w]) {

@@ -1,0 +1,135 @@
+//! A session: several systems started at the same frame and driven by the same commands,
+//! its command log, and the log's replay.
+//!
+//! **Time.** Frame $f$ is the $f$-th [`Session::step`]. A command given between steps
+//! $f-1$ and $f$ is stamped $f$ and reaches every system before it makes frame $f$; each
+//! system's frames are a function of (world, start label, seed, stamped commands) alone,
+//! so [`replay`] of a [`Recording`] gives the session's frames bit for bit.
+
+use serde::{Deserialize, Serialize};
+
+use crate::command::LiveCommand;
+use crate::systems::{character, Character, LiveFrame, Outcome};
+use crate::world::World;
+
+/// One logged command.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Stamped {
+    /// The frame it reached the systems before.
+    pub frame: usize,
+    /// The command.
+    pub command: LiveCommand,
+}
+
+/// What a session was: enough to replay it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Recording {
+    /// The systems, in the session's order.
+    pub systems: Vec<String>,
+    /// The start label.
+    pub start: String,
+    /// The seed.
+    pub seed: u64,
+    /// Frames played.
+    pub frames: usize,
+    /// The commands, in order.
+    pub commands: Vec<Stamped>,
+}
+
+/// Several systems driven together.
+pub struct Session {
+    world: &'static World,
+    systems: Vec<Box<dyn Character>>,
+    recording: Recording,
+}
+
+impl std::fmt::Debug for Session {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Session").field("recording", &self.recording).finish_non_exhaustive()
+    }
+}
+
+impl Session {
+    /// Systems `systems` (ids of [`crate::systems::SYSTEM_IDS`]) starting at label
+    /// `start`'s first playable frame ([`World::start_row`]), seeded with `seed`.
+    ///
+    /// # Errors
+    /// An unknown system or label, a label with no playable frame, or none or a repeated
+    /// system, with why.
+    pub fn new(world: &'static World, systems: &[String], start: &str, seed: u64) -> Result<Self, String> {
+        let label = world
+            .label_index(start)
+            .ok_or_else(|| format!("unknown label `{start}`; the labels are: {}", world.labels.join(", ")))?;
+        let row = world
+            .start_row(label)
+            .ok_or_else(|| format!("label `{start}` has no frame every system can start from"))?;
+        if systems.is_empty() {
+            return Err("a session needs at least one system".into());
+        }
+        if let Some(s) = systems.iter().enumerate().find(|(i, s)| systems[..*i].contains(s)).map(|(_, s)| s) {
+            return Err(format!("system `{s}` given twice"));
+        }
+        let chars = systems.iter().map(|s| character(world, s, row, seed)).collect::<Result<Vec<_>, _>>()?;
+        let recording = Recording { systems: systems.to_vec(), start: start.into(), seed, frames: 0, commands: vec![] };
+        Ok(Self { world, systems: chars, recording })
+    }
+
+    /// The world it plays.
+    pub fn world(&self) -> &'static World {
+        self.world
+    }
+
+    /// Frames made so far.
+    pub fn frame(&self) -> usize {
+        self.recording.frames
+    }
+
+    /// Gives `c` (checked against the world's labels) to every system, stamped with the
+    /// next frame; each system's outcome in the session's order.
+    ///
+    /// # Errors
+    /// A command the world refuses ([`LiveCommand::check`]); it is not logged.
+    pub fn command(&mut self, c: LiveCommand) -> Result<Vec<Outcome>, String> {
+        c.check(&self.world.labels)?;
+        let outcomes = self.systems.iter_mut().map(|s| s.command(&c)).collect();
+        self.recording.commands.push(Stamped { frame: self.recording.frames, command: c });
+        Ok(outcomes)
+    }
+
+    /// The next frame of every system, in the session's order.
+    pub fn step(&mut self) -> Vec<LiveFrame> {
+        self.recording.frames += 1;
+        self.systems.iter_mut().map(|s| s.step()).collect()
+    }
+
+    /// The session so far.
+    pub fn recording(&self) -> &Recording {
+        &self.recording
+    }
+}
+
+/// Plays `rec` again: per frame, every system's frame.
+///
+/// # Errors
+/// As [`Session::new`]; a command the world refuses; commands out of frame order or
+/// stamped past the recording's end.
+pub fn replay(world: &'static World, rec: &Recording) -> Result<Vec<Vec<LiveFrame>>, String> {
+    let mut s = Session::new(world, &rec.systems, &rec.start, rec.seed)?;
+    if rec.commands.windows(2).any(|w| w[1].frame < w[0].frame) {
+        return Err("the recording's commands are not in frame order".into());
+    }
+    if let Some(c) = rec.commands.iter().find(|c| c.frame > rec.frames) {
+        return Err(format!("a command is stamped frame {} but the recording has {} frames", c.frame, rec.frames));
+    }
+    let mut next = rec.commands.iter().peekable();
+    let mut out = Vec::with_capacity(rec.frames.min(1 << 20));
+    for f in 0..rec.frames {
+        while let Some(c) = next.next_if(|c| c.frame == f) {
+            s.command(c.command.clone())?;
+        }
+        out.push(s.step());
+    }
+    Ok(out)
+}
