@@ -10,6 +10,7 @@ mod external_rig;
 mod gplvm_stage;
 mod init;
 mod lifetime;
+mod live;
 mod partitions;
 mod pipeline_errors;
 mod provenance_checks;

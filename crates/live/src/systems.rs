@@ -347,11 +347,11 @@ impl MotionGraphs {
         let keep = self.queue.iter().position(|f| matches!(f, PathFrame::Node(_))).map_or(0, |i| i + 1);
         let keep = if self.blending() { keep } else { 0 };
         self.queue.truncate(keep);
-        let found = match c {
+        let (found, goal) = match c {
             LiveCommand::Transition { to, .. } => {
                 let Some(label) = w.label_index(to) else { return };
                 self.label = label;
-                self.plan(|v| w.row_label[v] == label)
+                (self.plan(|v| w.row_label[v] == label), format!("`{to}`"))
             }
             LiveCommand::Play { segment, clip } => {
                 let l = &w.labeled;
@@ -361,7 +361,7 @@ impl MotionGraphs {
                         && clip.as_ref().is_none_or(|c| *c == l.frames.clip[r])
                 });
                 match take {
-                    Some(first) => self.plan(|v| v == first),
+                    Some(first) => (self.plan(|v| v == first), format!("the take's first frame ({first})")),
                     None => {
                         self.note = Some(format!("no such take in `{}`", w.labels[self.label]));
                         return;
@@ -371,7 +371,10 @@ impl MotionGraphs {
             _ => return,
         };
         if !found {
-            self.note = Some("no path there in the motion graph".into());
+            self.note = Some(format!(
+                "no path to {goal} in the motion graph (none of its frames is in the graph's largest strongly \
+                 connected component); playing on"
+            ));
         }
     }
 }

@@ -34,6 +34,27 @@ pub enum Command {
     /// one label per clip (unless --labels) and a demo script, checked by ingesting and
     /// labeling the source; then `reprise run` runs it to the report.
     Init(InitArgs),
+    /// Serve the pipeline's characters live in a browser (run it after `reprise run`):
+    /// every benchmark system driven by the same commands, on loopback unless --listen
+    /// says otherwise.
+    Serve(ServeArgs),
+}
+
+/// `reprise serve`.
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    /// The pipeline whose artifacts are served.
+    #[command(flatten)]
+    pub pipeline: PipelineArg,
+    /// Address to listen on (loopback by default; another address exposes the server).
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:8024")]
+    pub listen: String,
+    /// At most this many sessions at once.
+    #[arg(long, default_value_t = 32)]
+    pub max_sessions: usize,
+    /// Where each session's recording is written (relative to the pipeline's directory).
+    #[arg(long, value_name = "DIR", default_value = "recordings")]
+    pub record_dir: PathBuf,
 }
 
 /// `reprise init`.

@@ -80,6 +80,17 @@ pub enum Error {
     #[error("init: {0}")]
     Init(String),
 
+    /// `reprise serve` cannot start the server for this pipeline; says why.
+    #[error("serve: {0}")]
+    Serve(String),
+
+    /// The server stopped with an error (it said which).
+    #[error("serve: reprise-serve exited with code {code}")]
+    ServeExited {
+        /// Its exit code.
+        code: i32,
+    },
+
     /// A stage `reprise init` ran on the source to check it failed; `output` is what it said.
     #[error("init: checking the source, stage `{stage}` failed ({what}):\n{output}")]
     InitProbe { stage: String, what: String, output: String, code: i32 },
@@ -211,6 +222,7 @@ impl Error {
             | Self::InputParamClash { .. }
             | Self::InputGlob { .. }
             | Self::Init(_)
+            | Self::Serve(_)
             | Self::InitExists { .. }
             | Self::InspectColumn { .. }
             | Self::NestedParam { .. }
@@ -239,7 +251,8 @@ impl Error {
             Self::CheckFailed { code, .. }
             | Self::StageFailed { code, .. }
             | Self::TaskFailed { code, .. }
-            | Self::InitProbe { code, .. } => *code,
+            | Self::InitProbe { code, .. }
+            | Self::ServeExited { code } => *code,
             Self::Slurm { .. } => exit::ENVIRONMENT,
             Self::Interrupted { signal, .. } => exit::INTERRUPTED_BASE + signal,
         }

@@ -51,6 +51,7 @@ pub mod paths;
 pub mod pipeline;
 mod record;
 pub mod run;
+pub mod serve;
 pub mod slurm;
 pub mod status;
 pub mod wire;
@@ -128,6 +129,7 @@ pub fn main_with_io(
         Command::Inspect(args) => inspect::inspect(args).map(|text| {
             let _ = write!(stdout, "{text}");
         }),
+        Command::Serve(args) => serve::serve(args, &dirs),
         Command::Init(args) => match commands.init {
             Some(init) => init(args, &dirs, stdout),
             None => Err(Error::Init(

@@ -46,9 +46,37 @@ use crate::protocol::Quantizer;
 #[derive(Debug, Clone, clap::Parser)]
 #[command(name = "reprise-serve", version, about)]
 pub struct Args {
-    /// The directory holding the pipeline's artifacts (gplvm_models.parquet, …, controls.parquet).
-    #[arg(long, value_name = "DIR")]
+    /// The directory holding the pipeline's artifacts under their default names
+    /// (gplvm_models.parquet, …, controls.parquet); a file flag below overrides one.
+    #[arg(long, value_name = "DIR", default_value = ".")]
     pub artifacts: PathBuf,
+    /// `gplvm_models.parquet`.
+    #[arg(long, value_name = "FILE")]
+    pub gplvm_models: Option<PathBuf>,
+    /// `gplvm_latents.parquet`.
+    #[arg(long, value_name = "FILE")]
+    pub latents: Option<PathBuf>,
+    /// `pca_models.parquet`.
+    #[arg(long, value_name = "FILE")]
+    pub pca_models: Option<PathBuf>,
+    /// `scales.parquet`.
+    #[arg(long, value_name = "FILE")]
+    pub scales: Option<PathBuf>,
+    /// `bridges.parquet`.
+    #[arg(long, value_name = "FILE")]
+    pub bridges: Option<PathBuf>,
+    /// `labeled_frames.parquet`.
+    #[arg(long, value_name = "FILE")]
+    pub labeled_frames: Option<PathBuf>,
+    /// `mg_nodes.parquet`.
+    #[arg(long, value_name = "FILE")]
+    pub mg_nodes: Option<PathBuf>,
+    /// `mg_edges.parquet`.
+    #[arg(long, value_name = "FILE")]
+    pub mg_edges: Option<PathBuf>,
+    /// `controls.parquet` (names the rig).
+    #[arg(long, value_name = "FILE")]
+    pub controls: Option<PathBuf>,
     /// Address to listen on. Loopback by default; another address exposes the server.
     #[arg(long, default_value = "127.0.0.1:8024")]
     pub listen: SocketAddr,
@@ -61,6 +89,25 @@ pub struct Args {
     /// Where each session's recording is written.
     #[arg(long, value_name = "DIR", default_value = "recordings")]
     pub record_dir: PathBuf,
+}
+
+impl Args {
+    /// The artifacts: each file flag given, or its default name in `--artifacts`.
+    pub fn paths(&self) -> Paths {
+        let d = Paths::in_dir(&self.artifacts);
+        let pick = |given: &Option<PathBuf>, default: PathBuf| given.clone().unwrap_or(default);
+        Paths {
+            gplvm_models: pick(&self.gplvm_models, d.gplvm_models),
+            latents: pick(&self.latents, d.latents),
+            pca_models: pick(&self.pca_models, d.pca_models),
+            scales: pick(&self.scales, d.scales),
+            bridges: pick(&self.bridges, d.bridges),
+            labeled_frames: pick(&self.labeled_frames, d.labeled_frames),
+            mg_nodes: pick(&self.mg_nodes, d.mg_nodes),
+            mg_edges: pick(&self.mg_edges, d.mg_edges),
+            controls: pick(&self.controls, d.controls),
+        }
+    }
 }
 
 /// Why the server cannot run.
@@ -133,6 +180,9 @@ struct Start {
     seed: Option<u64>,
 }
 
+/// A frame not taken by the client within this long ends its session.
+pub const SEND_TIMEOUT: Duration = Duration::from_secs(10);
+
 /// The most systems one session may run.
 const MAX_SYSTEMS: usize = SYSTEM_IDS.len();
 
@@ -193,8 +243,10 @@ async fn run_session(app: Arc<App>, mut session: Session, mut socket: WebSocket)
                         break;
                     }
                 };
-                if socket.send(Message::Binary(bytes.into())).await.is_err() {
-                    break;
+                // A client that stops reading is dropped rather than left holding a session.
+                match tokio::time::timeout(SEND_TIMEOUT, socket.send(Message::Binary(bytes.into()))).await {
+                    Ok(Ok(())) => {}
+                    _ => break,
                 }
             }
             msg = socket.recv() => {
@@ -241,7 +293,7 @@ pub fn serve(args: &Args) -> Result<(), ServeError> {
     if args.max_sessions == 0 || !(args.max_minutes.is_finite() && args.max_minutes > 0.0) {
         return Err(ServeError::Config("need --max-sessions >= 1 and --max-minutes > 0".into()));
     }
-    let world = World::load(&Paths::in_dir(&args.artifacts), Tuning::default())?;
+    let world = World::load(&args.paths(), Tuning::default())?;
     let app = Arc::new(App::new(world, args.max_sessions, args.max_minutes, args.record_dir.clone())?);
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     rt.block_on(async move {

@@ -28,10 +28,10 @@ pub struct Quantizer {
 }
 
 /// Labeled frames sampled to find the box.
-const BOX_SAMPLES: usize = 256;
+pub const BOX_SAMPLES: usize = 256;
 /// The box is the sampled meshes' bounds widened by this share of their extent on every
 /// side (synthesis may leave the training poses' bounds a little).
-const BOX_MARGIN: f64 = 0.25;
+pub const BOX_MARGIN: f64 = 0.25;
 
 impl Quantizer {
     /// The box of the world's training meshes (a sample of [`BOX_SAMPLES`] frames), widened.

@@ -32,7 +32,7 @@ pub fn write(dir: &Path, rec: &Recording) -> Result<PathBuf, String> {
     Err(format!("{}: {MAX_TRIES} recordings this second already", dir.display()))
 }
 
-/// Reads a recording written by [`write`] (at most 64 MB).
+/// Reads a recording written by [`write()`] (at most 64 MB).
 ///
 /// # Errors
 /// The file is missing, too large, or not a recording, with the path.

@@ -1,4 +1,4 @@
-//! `reprise-serve`: see the crate's documentation.
+//! `reprise-serve`: see `reprise_serve` for what it does (`reprise serve` runs it on a pipeline).
 
 use clap::Parser;
 
