@@ -66,6 +66,35 @@ pub enum LiveCommand {
     },
 }
 
+/// A client's message: a command, or a game action ([`crate::game::Action`]: `new-game`,
+/// `mark`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Message {
+    /// A command.
+    Command(LiveCommand),
+    /// A game action.
+    Game(crate::game::Action),
+}
+
+impl Message {
+    /// Parses one message: a game action by its `type`, otherwise a command
+    /// ([`LiveCommand::parse`]).
+    pub fn parse(text: &str, labels: &[String]) -> Result<Self, String> {
+        #[derive(Deserialize)]
+        struct Tag {
+            #[serde(rename = "type")]
+            kind: Option<String>,
+        }
+        let tag: Option<String> = serde_json::from_str::<Tag>(text).ok().and_then(|t| t.kind);
+        match tag.as_deref() {
+            Some("new-game" | "mark") => {
+                serde_json::from_str(text).map(Message::Game).map_err(|e| format!("not a game action: {e}"))
+            }
+            _ => LiveCommand::parse(text, labels).map(Message::Command),
+        }
+    }
+}
+
 fn one_second() -> f64 {
     1.0
 }
@@ -148,6 +177,18 @@ mod tests {
             let again = serde_json::to_string(&c).unwrap();
             assert_eq!(LiveCommand::parse(&again, &labels()).unwrap(), c, "{again}");
         }
+    }
+
+    #[test]
+    fn messages_are_commands_or_game_actions() {
+        use crate::game::Action;
+        let m = |t: &str| Message::parse(t, &labels());
+        assert_eq!(m(r#"{"type":"mark","cell":4}"#).unwrap(), Message::Game(Action::Mark { cell: 4 }));
+        assert_eq!(m(r#"{"type":"new-game"}"#).unwrap(), Message::Game(Action::NewGame { character_first: false }));
+        assert!(matches!(m(r#"{"type":"idle"}"#).unwrap(), Message::Command(LiveCommand::Idle { .. })));
+        assert!(m(r#"{"type":"mark","cell":-1}"#).unwrap_err().contains("not a game action"));
+        assert!(m(r#"{"type":"mark","cell":1,"x":2}"#).unwrap_err().contains("unknown field"));
+        assert!(m(r#"{"type":"sneeze"}"#).unwrap_err().contains("not a command"));
     }
 
     #[test]

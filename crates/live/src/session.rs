@@ -9,6 +9,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::command::LiveCommand;
+use crate::game::{Action, Game, GameFile, GameState};
 use crate::systems::{character, Character, LiveFrame, Outcome};
 use crate::world::World;
 
@@ -20,6 +21,17 @@ pub struct Stamped {
     pub frame: usize,
     /// The command.
     pub command: LiveCommand,
+}
+
+/// One logged game action (what the player did; the reactions it caused are among the
+/// commands).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StampedAction {
+    /// The frame it was taken before.
+    pub frame: usize,
+    /// The action.
+    pub action: Action,
 }
 
 /// What a session was: enough to replay it.
@@ -34,8 +46,11 @@ pub struct Recording {
     pub seed: u64,
     /// Frames played.
     pub frames: usize,
-    /// The commands, in order.
+    /// The commands, in order (a game's reactions among them).
     pub commands: Vec<Stamped>,
+    /// The game actions, in order (for the record: [`replay`] needs only the commands).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub game: Vec<StampedAction>,
 }
 
 /// Several systems driven together.
@@ -43,6 +58,7 @@ pub struct Session {
     world: &'static World,
     systems: Vec<Box<dyn Character>>,
     recording: Recording,
+    game: Option<Game>,
 }
 
 impl std::fmt::Debug for Session {
@@ -72,8 +88,39 @@ impl Session {
             return Err(format!("system `{s}` given twice"));
         }
         let chars = systems.iter().map(|s| character(world, s, row, seed)).collect::<Result<Vec<_>, _>>()?;
-        let recording = Recording { systems: systems.to_vec(), start: start.into(), seed, frames: 0, commands: vec![] };
-        Ok(Self { world, systems: chars, recording })
+        let recording = Recording {
+            systems: systems.to_vec(),
+            start: start.into(),
+            seed,
+            frames: 0,
+            commands: vec![],
+            game: vec![],
+        };
+        Ok(Self { world, systems: chars, recording, game: None })
+    }
+
+    /// The session with a Tic-Tac-Toe game of `file` (seeded with the session's seed), whose
+    /// reactions become its commands.
+    pub fn with_game(mut self, file: std::sync::Arc<GameFile>) -> Self {
+        self.game = Some(Game::new(file, self.world.fps, self.recording.seed));
+        self
+    }
+
+    /// Takes the player's game action before the next frame; the game's state after it.
+    ///
+    /// # Errors
+    /// The session has no game, or the game refuses the action ([`Game::act`]).
+    pub fn act(&mut self, a: Action) -> Result<&GameState, String> {
+        let frame = self.recording.frames;
+        let game = self.game.as_mut().ok_or("this session has no game (the server was started without a game file)")?;
+        game.act(frame, &a)?;
+        self.recording.game.push(StampedAction { frame, action: a });
+        Ok(game.state())
+    }
+
+    /// The game's state, if the session has a game.
+    pub fn game(&self) -> Option<&GameState> {
+        self.game.as_ref().map(Game::state)
     }
 
     /// The world it plays.
@@ -100,6 +147,11 @@ impl Session {
 
     /// The next frame of every system, in the session's order.
     pub fn step(&mut self) -> Vec<LiveFrame> {
+        let due = self.game.as_mut().map(|g| g.due(self.recording.frames)).unwrap_or_default();
+        for c in due {
+            // Checked against the world's labels when the game file was read.
+            let _ = self.command(c);
+        }
         self.recording.frames += 1;
         self.systems.iter_mut().map(|s| s.step()).collect()
     }

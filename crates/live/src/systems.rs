@@ -353,21 +353,13 @@ impl MotionGraphs {
                 self.label = label;
                 (self.plan(|v| w.row_label[v] == label), format!("`{to}`"))
             }
-            LiveCommand::Play { segment, clip } => {
-                let l = &w.labeled;
-                let take = (0..l.frames.rows()).find(|&r| {
-                    w.row_label[r] == self.label
-                        && segment.is_none_or(|s| s == l.segment_id[r])
-                        && clip.as_ref().is_none_or(|c| *c == l.frames.clip[r])
-                });
-                match take {
-                    Some(first) => (self.plan(|v| v == first), format!("the take's first frame ({first})")),
-                    None => {
-                        self.note = Some(format!("no such take in `{}`", w.labels[self.label]));
-                        return;
-                    }
+            LiveCommand::Play { segment, clip } => match w.take_start(self.label, *segment, clip.as_deref()) {
+                Some(first) => (self.plan(|v| v == first), format!("the take's first frame ({first})")),
+                None => {
+                    self.note = Some(format!("no such take in `{}`", w.labels[self.label]));
+                    return;
                 }
-            }
+            },
             _ => return,
         };
         if !found {
@@ -536,14 +528,8 @@ impl Crossfade {
                 None => return self.note = Some(format!("`{to}` has no database frames")),
             },
             LiveCommand::Play { segment, clip } => {
-                let l = &w.labeled;
                 let label = w.corpus_label[self.fade.target() as usize];
-                let take = (0..l.frames.rows()).find(|&r| {
-                    w.row_label[r] == label
-                        && segment.is_none_or(|s| s == l.segment_id[r])
-                        && clip.as_ref().is_none_or(|c| *c == l.frames.clip[r])
-                });
-                match take {
+                match w.take_start(label, *segment, clip.as_deref()) {
                     Some(first) => self.fade.fade_to_frame(first, w.tuning.blend_frames),
                     None => return self.note = Some(format!("no such take in `{}`", w.labels[label])),
                 }

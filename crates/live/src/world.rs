@@ -197,6 +197,17 @@ impl World {
         (0..self.labeled.frames.rows()).find(|&r| self.row_label[r] == label && self.alive[r] && db.has_next(r))
     }
 
+    /// The first labeled row of the take of label `label` named by `segment` id and/or
+    /// `clip` name (a PLAY command's take), if it has one.
+    pub fn take_start(&self, label: usize, segment: Option<i64>, clip: Option<&str>) -> Option<usize> {
+        let l = &self.labeled;
+        (0..l.frames.rows()).find(|&r| {
+            self.row_label[r] == label
+                && segment.is_none_or(|s| s == l.segment_id[r])
+                && clip.is_none_or(|c| c == l.frames.clip[r])
+        })
+    }
+
     /// The rig's mesh of `controls` (one frame), `3 × vertices` values.
     ///
     /// # Errors

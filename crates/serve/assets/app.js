@@ -3,7 +3,7 @@
 // frames interpolated at display rate), shows each frame's debug record, and sends
 // commands. Frame layout: crates/serve/src/protocol.rs. After the first frame is drawn
 // the page sets data-frames (frames drawn) and data-labels (each view's label) on
-// <body>, for tests.
+// <body>, for tests; the game sets data-game (its state as JSON).
 (function () {
   "use strict";
   var W = null, ws = null, views = [], systems = [], last = null, prev = null, lastAt = 0, frames = 0;
@@ -199,6 +199,7 @@
     ws.onmessage = function (e) {
       if (typeof e.data === "string") {
         var r = JSON.parse(e.data);
+        if (r.game) { showGame(r.game); return; }
         if (r.error) log("error: " + r.error);
         else r.ok.systems.forEach(function (s) { if (!s.taken) log(s.system + ": " + (s.ignored || s.refused)); });
         return;
@@ -211,6 +212,57 @@
   function send(c) {
     if (ws && ws.readyState === 1) ws.send(JSON.stringify(c));
     else log("not connected");
+  }
+
+  // ---- the game ----
+  var TURN = { player: "your turn", character: "the character ponders…", over: "game over" };
+
+  function buildGame() {
+    var board = $("game");
+    for (var i = 0; i < 9; i++) {
+      var b = document.createElement("button");
+      b.dataset.cell = String(i);
+      b.onclick = (function (cell) { return function () { send({ type: "mark", cell: cell }); }; })(i);
+      board.appendChild(b);
+    }
+    $("new-game").onclick = function () { send({ type: "new-game", character_first: $("character-first").checked }); };
+    if (!W.game) $("game-status").textContent = "no game file: the game plays, without reactions (reprise serve --game FILE)";
+  }
+
+  function showGame(g) {
+    var cells = $("game").querySelectorAll("button");
+    g.board.forEach(function (m, i) {
+      cells[i].textContent = m === "." ? "" : m;
+      cells[i].disabled = m !== "." || g.turn !== "player";
+      cells[i].className = g.line && g.line.indexOf(i) >= 0 ? "line" : "";
+    });
+    var t = "game " + g.game + ": " + (g.outcome ? (g.outcome === "draw" ? "a draw" : g.outcome === "player" ? "you win" : "the character wins") : TURN[g.turn]);
+    if (g.reaction) {
+      var labels = W.game ? [].concat.apply([], W.game[g.reaction[0]] || []) : [];
+      t += "\nreaction: " + g.reaction[0] + " (script " + g.reaction[1] + (labels.length ? ", to " + labels.join("/") : "") + ")";
+    }
+    if (g.mistake) t += "\nits last move was a deliberate slip";
+    $("game-status").textContent = t;
+    document.body.dataset.game = JSON.stringify(g);
+  }
+
+  function fillTakes() {
+    var sel = $("take");
+    W.labels.forEach(function (l, i) {
+      var group = document.createElement("optgroup");
+      group.label = l;
+      (W.takes[i] || []).forEach(function (t) {
+        var o = document.createElement("option"); o.value = t[0]; o.textContent = t[0]; group.appendChild(o);
+      });
+      sel.appendChild(group);
+    });
+    $("play").onclick = function () { send({ type: "play", clip: sel.value }); };
+    $("move").onclick = function () {
+      var l = views.length ? views[0].label : -1, takes = W.takes[l] || [];
+      if (!takes.length) { log("no view shows a label yet"); return; }
+      var t = takes[Math.floor(Math.random() * takes.length)], f = t[1][Math.floor(Math.random() * t[1].length)];
+      send({ type: "move", to: { clip: t[0], frame: f }, duration: parseFloat($("duration").value) || 1 });
+    };
   }
 
   window.reprise = { send: send, connect: connect, camera: cam, goTo: function (label) { send({ type: "transition", to: label }); } };
@@ -231,7 +283,8 @@
     });
     $("connect").onclick = connect;
     $("idle").onclick = function () { send({ type: "idle", radius: parseFloat($("radius").value) }); };
-    if (window.repriseGame) window.repriseGame(W, send, log);
+    buildGame();
+    fillTakes();
     status(W.rig + " · " + W.labels.length + " labels · " + W.fps + " fps");
     connect();
     requestAnimationFrame(render);

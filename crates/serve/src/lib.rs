@@ -32,7 +32,8 @@ use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use axum::Router;
-use reprise_live::command::LiveCommand;
+use reprise_live::command::Message as ClientMessage;
+use reprise_live::game::GameFile;
 use reprise_live::session::Session;
 use reprise_live::systems::SYSTEM_IDS;
 use reprise_live::world::{Paths, Tuning, World};
@@ -89,6 +90,10 @@ pub struct Args {
     /// Where each session's recording is written.
     #[arg(long, value_name = "DIR", default_value = "recordings")]
     pub record_dir: PathBuf,
+    /// The Tic-Tac-Toe game file (reactions to game events as scripts of commands;
+    /// `reprise_live::game`). Without it the page's game has no reactions.
+    #[arg(long, value_name = "FILE")]
+    pub game: Option<PathBuf>,
 }
 
 impl Args {
@@ -132,6 +137,7 @@ pub struct App {
     max_minutes: f64,
     record_dir: PathBuf,
     world_json: String,
+    game: Option<Arc<GameFile>>,
 }
 
 impl App {
@@ -144,10 +150,19 @@ impl App {
         max_sessions: usize,
         max_minutes: f64,
         record_dir: PathBuf,
+        game: Option<GameFile>,
     ) -> Result<Self, ServeError> {
         let quant = Quantizer::of_world(world)?;
-        let world_json = protocol::world_json(world, &quant);
-        Ok(Self { world, quant, sessions: Arc::new(Semaphore::new(max_sessions)), max_minutes, record_dir, world_json })
+        let world_json = protocol::world_json(world, &quant, game.as_ref());
+        Ok(Self {
+            world,
+            quant,
+            sessions: Arc::new(Semaphore::new(max_sessions)),
+            max_minutes,
+            record_dir,
+            world_json,
+            game: game.map(Arc::new),
+        })
     }
 }
 
@@ -207,7 +222,10 @@ async fn session(
     let world = app.world;
     let start = q.start.unwrap_or_else(|| world.labels[0].clone());
     let session = match Session::new(world, &systems, &start, q.seed.unwrap_or(0)) {
-        Ok(s) => s,
+        Ok(s) => match &app.game {
+            Some(g) => s.with_game(Arc::clone(g)),
+            None => s,
+        },
         Err(e) => return (StatusCode::BAD_REQUEST, e).into_response(),
     };
     let Ok(permit) = Arc::clone(&app.sessions).try_acquire_owned() else {
@@ -227,6 +245,7 @@ async fn run_session(app: Arc<App>, mut session: Session, mut socket: WebSocket)
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let deadline = tokio::time::Instant::now() + Duration::from_secs_f64(app.max_minutes * 60.0);
     let mut rate = RateLimit::new(tokio::time::Instant::now().into_std());
+    let mut game_version = session.game().map(|g| g.version);
     loop {
         tokio::select! {
             _ = tick.tick() => {
@@ -248,6 +267,13 @@ async fn run_session(app: Arc<App>, mut session: Session, mut socket: WebSocket)
                     Ok(Ok(())) => {}
                     _ => break,
                 }
+                // The character moved (its turn ended on this frame): the page is told.
+                if let Some(g) = session.game().filter(|g| Some(g.version) != game_version) {
+                    game_version = Some(g.version);
+                    if socket.send(Message::Text(protocol::game_json(g).into())).await.is_err() {
+                        break;
+                    }
+                }
             }
             msg = socket.recv() => {
                 let text = match msg {
@@ -261,9 +287,16 @@ async fn run_session(app: Arc<App>, mut session: Session, mut socket: WebSocket)
                     Some(Ok(Message::Close(_))) | Some(Err(_)) | None => break,
                 };
                 let reply = match rate.take(tokio::time::Instant::now().into_std()) {
-                    limits::Verdict::Allow => match LiveCommand::parse(text.as_str(), &world.labels) {
-                        Ok(c) => match session.command(c) {
+                    limits::Verdict::Allow => match ClientMessage::parse(text.as_str(), &world.labels) {
+                        Ok(ClientMessage::Command(c)) => match session.command(c) {
                             Ok(outcomes) => protocol::outcomes_json(session.frame(), &session.recording().systems, &outcomes),
+                            Err(e) => protocol::error_json(&e),
+                        },
+                        Ok(ClientMessage::Game(a)) => match session.act(a) {
+                            Ok(g) => {
+                                game_version = Some(g.version);
+                                protocol::game_json(g)
+                            }
                             Err(e) => protocol::error_json(&e),
                         },
                         Err(e) => protocol::error_json(&e),
@@ -294,15 +327,20 @@ pub fn serve(args: &Args) -> Result<(), ServeError> {
         return Err(ServeError::Config("need --max-sessions >= 1 and --max-minutes > 0".into()));
     }
     let world = World::load(&args.paths(), Tuning::default())?;
-    let app = Arc::new(App::new(world, args.max_sessions, args.max_minutes, args.record_dir.clone())?);
+    let game = match &args.game {
+        Some(path) => Some(GameFile::read(path, &world.labels).map_err(|e| ServeError::Config(e.to_string()))?),
+        None => None,
+    };
+    let app = Arc::new(App::new(world, args.max_sessions, args.max_minutes, args.record_dir.clone(), game)?);
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     rt.block_on(async move {
         let listener = tokio::net::TcpListener::bind(args.listen).await?;
         let addr = listener.local_addr()?;
         reprise_stagekit::say_whole(&format!(
-            "reprise serve: http://{addr}/ ({} labels; systems {})\n",
+            "reprise serve: http://{addr}/ ({} labels; systems {}; {})\n",
             world.labels.len(),
-            SYSTEM_IDS.join(", ")
+            SYSTEM_IDS.join(", "),
+            args.game.as_ref().map_or("no game file".into(), |g| format!("game {}", g.display()))
         ));
         axum::serve(listener, router(app))
             .with_graceful_shutdown(async {

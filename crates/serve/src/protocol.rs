@@ -13,6 +13,7 @@
 //! clamped, with the box `[lo, hi]` of `GET /world` ([`Quantizer`]): 1/65535 of the box
 //! per step (for the dragon's face, about 3 µm).
 
+use reprise_live::game::{Event, GameFile, GameState};
 use reprise_live::systems::{LiveFrame, Outcome, SYSTEM_IDS};
 use reprise_live::world::World;
 use reprise_stagekit::StageResult;
@@ -123,9 +124,38 @@ pub fn encode_frame(
     Ok(out)
 }
 
-/// `GET /world`: what the page needs to draw.
-pub fn world_json(world: &World, quant: &Quantizer) -> String {
+/// A take's poses offered to MOVE: every this many labeled rows.
+const TAKE_POSE_STEP: usize = 10;
+/// At most this many poses per take.
+const MAX_TAKE_POSES: usize = 64;
+
+/// `GET /world`: what the page needs to draw, the takes of each label (for PLAY), and
+/// the game's reactions (event → the labels its scripts go to), if there is a game.
+pub fn world_json(world: &World, quant: &Quantizer, game: Option<&GameFile>) -> String {
     let rig = &world.rig.0;
+    // Per label, its takes: (clip, every TAKE_POSE_STEP-th training frame of it).
+    let mut takes: Vec<Vec<(&str, Vec<i64>)>> = vec![Vec::new(); world.labels.len()];
+    let f = &world.labeled.frames;
+    for (r, &l) in world.row_label.iter().enumerate() {
+        let clip = f.clip[r].as_str();
+        if takes[l].last().is_none_or(|t| t.0 != clip) {
+            takes[l].push((clip, Vec::new()));
+        }
+        let poses = &mut takes[l].last_mut().expect("pushed").1;
+        if poses.is_empty() || (poses.len() < MAX_TAKE_POSES && r % TAKE_POSE_STEP == 0) {
+            poses.push(f.frame[r]);
+        }
+    }
+    let reactions = game.map(|g| {
+        Event::ALL
+            .iter()
+            .map(|&e| {
+                let labels: Vec<Vec<&str>> =
+                    g.scripts(e).iter().map(|s| s.steps.iter().filter_map(|st| st.command.label()).collect()).collect();
+                (e.name(), labels)
+            })
+            .collect::<std::collections::BTreeMap<_, _>>()
+    });
     let triangles: Vec<u32> = rig.triangles().iter().flatten().copied().collect();
     let bones: Vec<u32> = rig.bones().iter().flatten().copied().collect();
     serde_json::json!({
@@ -137,6 +167,8 @@ pub fn world_json(world: &World, quant: &Quantizer) -> String {
         "bones": bones,
         "box": quant,
         "rig": rig.describe(),
+        "takes": takes,
+        "game": reactions,
     })
     .to_string()
 }
@@ -153,6 +185,11 @@ pub fn outcomes_json(frame: usize, systems: &[String], outcomes: &[Outcome]) -> 
         })
         .collect();
     serde_json::json!({"ok": {"frame": frame, "systems": per}}).to_string()
+}
+
+/// The game's state for the client: `{"game": …}`.
+pub fn game_json(state: &GameState) -> String {
+    serde_json::json!({ "game": state }).to_string()
 }
 
 /// An error message for the client.

@@ -48,8 +48,14 @@ mod tests {
     #[test]
     fn recordings_get_new_names_and_read_back() {
         let dir = tempfile::tempdir().unwrap();
-        let rec =
-            Recording { systems: vec!["crossfade".into()], start: "a".into(), seed: 3, frames: 10, commands: vec![] };
+        let rec = Recording {
+            systems: vec!["crossfade".into()],
+            start: "a".into(),
+            seed: 3,
+            frames: 10,
+            commands: vec![],
+            game: vec![],
+        };
         let a = write(dir.path(), &rec).unwrap();
         let b = write(dir.path(), &rec).unwrap();
         assert_ne!(a, b);
