@@ -27,4 +27,7 @@ fn main() {
         let main = format!("src/bin/{bin}.rs");
         reprise_codeid::emit(&var, &[&stages.join(krate), stagekit], &[Path::new(&main)]);
     }
+    // `reprise-replay` is no pipeline stage, but runs as one (`reprise replay`).
+    let replay = Path::new("../replay");
+    reprise_codeid::emit("REPRISE_CODE_ID_REPLAY", &[replay, stagekit], &[Path::new("src/bin/reprise-replay.rs")]);
 }

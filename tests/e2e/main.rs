@@ -15,6 +15,7 @@ mod partitions;
 mod pipeline_errors;
 mod provenance_checks;
 mod python_readers;
+mod replay;
 mod robot_pipeline;
 mod scale_pca;
 mod slurm;

@@ -51,6 +51,12 @@ pub const SYSTEMS: [SystemDef; 5] = [
     },
 ];
 
+/// The seed offset of a seeded system's second answer to each request: the benchmark
+/// answers every request under its seed and again under seed + `RESEED` (the reseeded
+/// curves the variety metric compares), and a replayed session is replayed again under
+/// its recording's seed + `RESEED`.
+pub const RESEED: u64 = 1_000_003;
+
 /// The ablation: the paper's method with one improvement on (`reprise-paper-<name>`, one
 /// per improvement of the synthesis engine's `Method::IMPROVEMENTS`, in its order). They
 /// answer the same requests and are measured by the same code, and are shown in the

@@ -38,6 +38,26 @@ pub enum Command {
     /// every benchmark system driven by the same commands, on loopback unless --listen
     /// says otherwise.
     Serve(ServeArgs),
+    /// Measure a live session (run it after `reprise run`): every system replayed on the
+    /// commands of a recording `reprise serve` wrote, as the transition benchmark's
+    /// answers, then `evaluate` on them, writing its report to
+    /// `reports/<name>/replay-<recording>/`.
+    Replay(ReplayArgs),
+}
+
+/// `reprise replay`.
+#[derive(Debug, Args)]
+pub struct ReplayArgs {
+    /// The session's recording (`recordings/session-*.json`), relative to where you stand.
+    #[arg(value_name = "RECORDING")]
+    pub recording: PathBuf,
+    /// The pipeline whose artifacts the systems play and whose `evaluate` measures them.
+    #[command(flatten)]
+    pub pipeline: PipelineArg,
+    /// Seconds of each system's frames kept before every TRANSITION as context (as the
+    /// benchmark's `hold`).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.5)]
+    pub hold: f64,
 }
 
 /// `reprise serve`.

@@ -84,6 +84,10 @@ pub enum Error {
     #[error("serve: {0}")]
     Serve(String),
 
+    /// `reprise replay` cannot measure this recording on this pipeline; says why.
+    #[error("replay: {0}")]
+    Replay(String),
+
     /// The server stopped with an error (it said which).
     #[error("serve: reprise-serve exited with code {code}")]
     ServeExited {
@@ -223,6 +227,7 @@ impl Error {
             | Self::InputGlob { .. }
             | Self::Init(_)
             | Self::Serve(_)
+            | Self::Replay(_)
             | Self::InitExists { .. }
             | Self::InspectColumn { .. }
             | Self::NestedParam { .. }

@@ -9,6 +9,7 @@
 //! implementation of [`Executor`]: submit a batch of command lines, say when each ended
 //! and with what exit code, cancel on request.
 
+use std::path::Path;
 use std::time::Instant;
 
 use crate::cache::ResolvedBin;
@@ -84,7 +85,7 @@ impl Executor for Local {
                     }
                     let Task { stage, bin } = tasks[k];
                     let started = Instant::now();
-                    let result = invoke_measured(pipeline, stage, bin, interrupt, plain).map(|peak| Done {
+                    let result = invoke_measured(pipeline, stage, &bin.path, interrupt, plain).map(|peak| Done {
                         seconds: started.elapsed().as_secs_f64(),
                         peak_rss_mb: peak,
                         job: None,
@@ -112,10 +113,10 @@ impl Executor for Local {
 /// Runs `stage` once as a child process (its outputs' directories created first) and
 /// returns the peak memory (MB) it reported; a failure is an error naming the stage.
 /// `plain_progress` asks it for plain progress lines (several stages run at once).
-fn invoke_measured(
+pub(crate) fn invoke_measured(
     pipeline: &Pipeline,
     stage: &Stage,
-    bin: &ResolvedBin,
+    bin: &Path,
     interrupt: &child::Interrupt,
     plain_progress: bool,
 ) -> Result<Option<f64>> {
@@ -128,7 +129,7 @@ fn invoke_measured(
     let _ = std::fs::create_dir_all(&pipeline.artifacts.abs);
     let _ = std::fs::remove_file(&stats);
     let call = child::Call { stats: Some(&stats), plain_progress, pipeline: &pipeline.name, ..Default::default() };
-    let outcome = child::invoke(stage, &bin.path, &pipeline.dir, call, interrupt)?;
+    let outcome = child::invoke(stage, bin, &pipeline.dir, call, interrupt)?;
     let peak_rss_mb = child::read_peak(&stats);
     let _ = std::fs::remove_file(&stats);
     match outcome {

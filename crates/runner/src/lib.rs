@@ -24,7 +24,7 @@
 //! | `partitioned` | running a partitioned stage one label at a time, cached per label, and merging |
 //! | [`child`] | invoking a stage as a child process |
 //! | [`executor`], [`slurm`] | where stage processes run: local children or Slurm job arrays |
-//! | [`run`], [`status`], [`dag_text`], [`inspect`] | the subcommands (`init` is the `reprise-init` crate's, given in [`Commands`]) |
+//! | [`run`], [`status`], [`dag_text`], [`inspect`], [`serve`], [`replay`] | the subcommands (`init` is the `reprise-init` crate's, given in [`Commands`]) |
 //! | [`error`] | the error type and its exit codes |
 //!
 //! There is no global state: [`main_with_args`] can be called any number of times in one
@@ -50,6 +50,7 @@ mod partitioned;
 pub mod paths;
 pub mod pipeline;
 mod record;
+pub mod replay;
 pub mod run;
 pub mod serve;
 pub mod slurm;
@@ -79,6 +80,9 @@ pub struct Commands {
     /// `reprise init` (the `reprise-init` crate, which builds on this one); without it,
     /// `init` says it is not part of this build.
     pub init: Option<InitCommand>,
+    /// What `reprise-replay` reads and writes (the `reprise-replay` crate's declaration),
+    /// for `reprise replay`; without it, `replay` says it is not part of this build.
+    pub replay: Option<&'static Wiring>,
 }
 
 /// `reprise init`: given its arguments and where binaries are found (with the stages'
@@ -130,6 +134,12 @@ pub fn main_with_io(
             let _ = write!(stdout, "{text}");
         }),
         Command::Serve(args) => serve::serve(args, &dirs),
+        Command::Replay(args) => match commands.replay {
+            Some(wiring) => replay::replay(args, &dirs, wiring, stderr),
+            None => Err(Error::Replay(
+                "`replay` is not part of this build of the runner (the `reprise` executable has it)".into(),
+            )),
+        },
         Command::Init(args) => match commands.init {
             Some(init) => init(args, &dirs, stdout),
             None => Err(Error::Init(

@@ -277,11 +277,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         .collect::<StageResult<Vec<_>>>()?;
     let training = Training::measure(&rig, &labeled, weight, &maps, args.mesh_reference_limit)?;
     let labels = training.labels.clone();
-    let pairs: Vec<(String, String)> = {
-        let mut p: Vec<(String, String)> = reqs.iter().map(|r| (r.from.clone(), r.to.clone())).collect();
-        p.dedup();
-        p
-    };
+    let pairs = asked_pairs(&reqs);
     let settings = measure::Settings {
         k: args.window,
         stride: args.plausibility_stride,
@@ -399,6 +395,14 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<Metric>>> {
         })?;
     }
     Ok(Some(out))
+}
+
+/// Each ordered pair of labels the requests ask, once, in the order first asked: the
+/// benchmark's requests come pair by pair, a replayed live session's (`reprise replay`) in
+/// the order the session asked them, a pair asked again later.
+fn asked_pairs(reqs: &[Request]) -> Vec<(String, String)> {
+    let mut seen = HashSet::new();
+    reqs.iter().map(|r| (r.from.clone(), r.to.clone())).filter(|p| seen.insert(p.clone())).collect()
 }
 
 /// The requests whose start frame is the first point of a bridge of their pair: the
@@ -664,6 +668,25 @@ mod tests {
         assert_eq!(back[0], rows[0]);
         assert!(back[1].value.is_nan() && back[1].n == 0 && back[1].ci_low.is_none());
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Every pair asked is listed once, where it is first asked, whether its requests come
+    /// together (the benchmark) or apart (a replayed session).
+    #[test]
+    fn pairs_are_listed_once_in_the_order_asked() {
+        let r = |id: i64, from: &str, to: &str| Request {
+            request: id,
+            from: from.into(),
+            to: to.into(),
+            segment_id: 0,
+            clip: "c".into(),
+            frame: 0,
+        };
+        let pair = |a: &str, b: &str| (a.to_string(), b.to_string());
+        let apart = [r(0, "a", "b"), r(1, "b", "c"), r(2, "c", "a"), r(3, "a", "b"), r(4, "b", "c")];
+        assert_eq!(asked_pairs(&apart), [pair("a", "b"), pair("b", "c"), pair("c", "a")]);
+        let together = [r(0, "a", "b"), r(1, "a", "b"), r(2, "b", "a")];
+        assert_eq!(asked_pairs(&together), [pair("a", "b"), pair("b", "a")]);
     }
 
     /// A start is on a bridge point when its frame is the `from_point` (the label's latent

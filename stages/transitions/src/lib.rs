@@ -251,8 +251,8 @@ impl Io {
     }
 }
 
-/// The seed offset of the repeated runs.
-pub const RESEED: u64 = 1_000_003;
+/// The seed offset of the repeated runs (the benchmark's, shared with the replay of live sessions).
+pub use reprise_benchmark::systems::RESEED;
 
 impl Baseline<'_> {
     fn answer(&self, start: usize, to: &str, seed: u64) -> Result<Played, String> {
