@@ -65,6 +65,8 @@ fn init_on_bvh_takes_then_run_makes_a_report() {
     assert!(run.contains("finished 11 ran, 0 cached"), "{run}");
     assert!(p.read("reports/takes/report.md").contains("## Conclusions"));
     assert!(p.path("reports/takes/index.html").exists());
+    // The skeleton character live: bone lines on the page, every system, its game.
+    crate::live::serve_smoke(&p);
 
     let refused = p.reprise(&["init", "--bvh", "takes/*.bvh"]).fails(2);
     assert!(refused.contains("pipeline.toml` exists; refusing to overwrite it (give --force"), "{refused}");
@@ -136,6 +138,7 @@ fn init_on_the_kenney_character_then_run_makes_a_report() {
     p.reprise(&["run"]).ok();
     assert!(p.read("reports/character-male-a/report.md").contains("## Conclusions"));
     assert!(p.path("artifacts/character-male-a/exported.glb").exists());
+    crate::live::serve_smoke(&p);
 }
 
 /// A curve table with its rig evaluator: init passes the evaluator to ingest, and the

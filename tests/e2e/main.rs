@@ -5,6 +5,7 @@ mod util;
 
 mod bad_inputs;
 mod bvh_pipeline;
+mod cdp;
 mod default_pipeline;
 mod external_rig;
 mod gplvm_stage;

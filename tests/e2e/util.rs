@@ -19,11 +19,12 @@ impl Project {
         Self { dir: tempfile::tempdir().unwrap() }
     }
 
-    /// A project with the default dragon-face pipeline, its labels file and its scripts.
+    /// A project with the default dragon-face pipeline, its labels file, its scripts and its
+    /// game file.
     pub fn dragon_face() -> Self {
         let p = Self::empty();
         p.write("pipeline.toml", &std::fs::read_to_string(repo().join("pipeline.toml")).unwrap());
-        for file in ["datasets/dragon-face/labels.toml", "datasets/dragon-face/scripts/demo.toml"] {
+        for file in ["datasets/dragon-face/labels.toml", "datasets/dragon-face/scripts/demo.toml", "game.toml"] {
             p.write(file, &std::fs::read_to_string(repo().join(file)).unwrap());
         }
         p

@@ -64,7 +64,8 @@ pub fn init(args: &InitArgs, dirs: &BinDirs, out: &mut dyn Write) -> Result<()> 
     }
     let generated_labels = dir.join("labels.toml");
     let scripts_path = dir.join(template::DEMO_SCRIPT);
-    let mut to_write = vec![pipeline_path.clone(), scripts_path.clone()];
+    let game_path = dir.join(template::GAME_FILE);
+    let mut to_write = vec![pipeline_path.clone(), scripts_path.clone(), game_path.clone()];
     if labels_path.is_none() {
         to_write.push(generated_labels.clone());
     }
@@ -91,6 +92,7 @@ pub fn init(args: &InitArgs, dirs: &BinDirs, out: &mut dyn Write) -> Result<()> 
             labels_ref: &labels_ref,
             generated_labels: &generated_labels,
             scripts: &scripts_path,
+            game: &game_path,
             pipeline: &pipeline_path,
         },
         &text,
@@ -113,6 +115,8 @@ struct Files<'a> {
     generated_labels: &'a Path,
     /// The demo script.
     scripts: &'a Path,
+    /// The game file for `reprise serve`.
+    game: &'a Path,
     /// The pipeline file.
     pipeline: &'a Path,
 }
@@ -155,11 +159,13 @@ fn probe_and_write(
         }
     };
     let script = script_text(&segments)?;
+    let game = template::game_text(&segments)?;
 
     if let Some(plan) = &plan {
         write_atomic(files.generated_labels, &plan.text)?;
     }
     write_atomic(files.scripts, &script)?;
+    write_atomic(files.game, &game)?;
     write_atomic(files.pipeline, text)?;
     Ok((clips, plan, segments))
 }

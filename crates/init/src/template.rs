@@ -40,6 +40,19 @@ pub const CHOICES: &[(&str, &str, &str)] = &[
 /// The demo script's path, relative to the pipeline.
 pub const DEMO_SCRIPT: &str = "scripts/demo.toml";
 
+/// The game file's path, relative to the pipeline (where `reprise serve` looks for it).
+pub const GAME_FILE: &str = "game.toml";
+
+/// The game's events in the file's order, with what the paper's character does.
+const GAME_EVENTS: [(&str, &str); 6] = [
+    ("player-turn", "the player's turn (the paper's dragon squints and scowls)"),
+    ("ponder", "the character's turn, deliberately long (a ponderous expression)"),
+    ("win", "the character won (happy)"),
+    ("lose", "the character lost (it roars)"),
+    ("missed-block", "its move left the player a winning square (surprise)"),
+    ("draw", "a draw"),
+];
+
 /// The pipeline file: a stage table for every stage the runner knows (`known`, in their
 /// order; `export-gltf` only for a glTF character), each with only what differs from its
 /// defaults: the source, the labels, the demo script, `fps` if given and [`CHOICES`]; every artifact is
@@ -154,6 +167,53 @@ pub fn script_text(segments: &[Segment]) -> Result<String> {
              # [[script.command]]\n# type = \"transition\"\n# to = {}",
             quoted(&other.label)
         );
+    }
+    Ok(t)
+}
+
+/// A game file for `reprise serve` (docs/live.md, "The game"): each event reacts with a
+/// TRANSITION to one of the labels, taken in turn (which label suits which event only
+/// the user knows: the file says to edit it), then an IDLE; the game-ending events get a
+/// second script that plays the label's longest take.
+pub fn game_text(segments: &[Segment]) -> Result<String> {
+    let mut labels: Vec<&str> = Vec::new();
+    for s in segments {
+        if !labels.contains(&s.label.as_str()) {
+            labels.push(&s.label);
+        }
+    }
+    if labels.is_empty() {
+        return Err(Error::Init("the labels leave no segment to model".into()));
+    }
+    let longest = |label: &str| {
+        segments.iter().filter(|s| s.label == label).max_by_key(|s| (s.frames(), std::cmp::Reverse(s.segment_id)))
+    };
+    let mut t = String::from(
+        "# The Tic-Tac-Toe game of `reprise serve` (the paper's §6), written by `reprise init`.\n\
+         # Per game event, a set of scripts; the game picks one at random under the session's seed.\n\
+         # A step is a live command (docs/live.md, \"Commands\") and `hold`, the seconds until the\n\
+         # next step. The labels below were assigned in turn: give each event the label that\n\
+         # suits it, and add scripts (more [[event]] tables) for variety.\n\n\
+         ponder_seconds = 3.0   # the character's turn, deliberately long\n\
+         mistake_rate = 0.3     # share of its moves that are a random free square: it can lose\n",
+    );
+    for (i, (event, what)) in GAME_EVENTS.iter().enumerate() {
+        let label = labels[i % labels.len()];
+        let _ = writeln!(
+            t,
+            "\n# {what}\n[[{event}]]\nname = \"{event}\"\nsteps = [{{ type = \"transition\", to = {}, hold = 1.0 }}, \
+             {{ type = \"idle\", radius = 0.3 }}]",
+            quoted(label)
+        );
+        if let Some(take) = longest(label).filter(|_| matches!(*event, "win" | "lose" | "draw")) {
+            let _ = writeln!(
+                t,
+                "[[{event}]]\nname = \"{event} take\"\nsteps = [{{ type = \"transition\", to = {}, hold = 3.0 }}, \
+                 {{ type = \"play\", clip = {} }}]",
+                quoted(label),
+                quoted(&take.clip)
+            );
+        }
     }
     Ok(t)
 }

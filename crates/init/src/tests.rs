@@ -99,3 +99,26 @@ fn the_demo_script_names_real_frames() {
     assert!(text.contains("# to = \"wave\""), "{text}");
     assert!(script_text(&[]).is_err());
 }
+
+/// The game file reads with the game's own parser against the character's labels: every
+/// event reacts, the labels are taken in turn, and the game-ending events also play the
+/// label's longest take.
+#[test]
+fn the_game_file_reads_and_names_the_labels() {
+    use reprise_live::game::{Event, GameFile};
+    let segs =
+        [segment(0, "idle", "Idle", 0, 10), segment(1, "idle", "Idle2", 5, 60), segment(2, "wave", "Wave", 0, 30)];
+    let text = crate::template::game_text(&segs).unwrap();
+    let game =
+        GameFile::parse(&text, &["idle".to_string(), "wave".to_string()]).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    let to = |e: Event| game.scripts(e)[0].steps[0].command.label().map(str::to_string);
+    assert_eq!(to(Event::PlayerTurn).as_deref(), Some("idle"));
+    assert_eq!(to(Event::Ponder).as_deref(), Some("wave"));
+    assert_eq!(to(Event::Win).as_deref(), Some("idle"));
+    assert_eq!(game.scripts(Event::Win).len(), 2);
+    assert!(text.contains("clip = \"Idle2\""), "{text}");
+    assert_eq!(game.scripts(Event::Ponder).len(), 1);
+    // A label set without the file's labels is refused by the parser, naming one.
+    assert!(GameFile::parse(&text, &["other".to_string()]).is_err());
+    assert!(crate::template::game_text(&[]).is_err());
+}

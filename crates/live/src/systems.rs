@@ -41,8 +41,9 @@ pub enum Debug {
     MotionMatching {
         /// The database row playing.
         frame: usize,
-        /// The best candidate of a search made this frame: (row, cost).
-        best: Option<(usize, f64)>,
+        /// The best candidates of a search made this frame, best first: (row, its label,
+        /// cost), at most [`CANDIDATES_SHOWN`]; empty if it did not search.
+        candidates: Vec<(usize, usize, f64)>,
         /// Whether it jumped.
         switched: bool,
     },
@@ -54,6 +55,9 @@ pub enum Debug {
         source_weight: f64,
     },
 }
+
+/// Motion matching's candidates in a frame's debug record.
+pub const CANDIDATES_SHOWN: usize = 5;
 
 /// At most this many planned Motion Graphs frames in a frame's debug record.
 pub const PLANNED_SHOWN: usize = 48;
@@ -481,9 +485,16 @@ impl Character for MotionMatching {
 
     fn step(&mut self) -> LiveFrame {
         let w = self.world;
-        let (info, note) = match self.controller.step() {
+        let (info, mut note) = match self.controller.step() {
             Ok(i) => (Some(i), None),
             Err(e) => (None, Some(w.corpus.why(e))),
+        };
+        let candidates = match self.controller.candidates(CANDIDATES_SHOWN) {
+            Ok(top) => top.into_iter().map(|m| (m.frame, w.row_label[m.frame], m.cost)).collect(),
+            Err(e) => {
+                note.get_or_insert(w.corpus.why(e));
+                Vec::new()
+            }
         };
         self.row = w.corpus.unscale(self.controller.output());
         let frame = self.controller.current_frame();
@@ -491,11 +502,7 @@ impl Character for MotionMatching {
             controls: self.row.clone(),
             label: w.row_label[frame],
             phase: if info.is_some_and(|i| i.switched) { "blend" } else { "play" },
-            debug: Debug::MotionMatching {
-                frame,
-                best: info.and_then(|i| i.best).map(|m| (m.frame, m.cost)),
-                switched: info.is_some_and(|i| i.switched),
-            },
+            debug: Debug::MotionMatching { frame, candidates, switched: info.is_some_and(|i| i.switched) },
             note,
         }
     }

@@ -110,6 +110,8 @@ pub struct Controller<'a> {
     src_v: Vec<f64>,
     dst_v: Vec<f64>,
     out: Vec<f64>,
+    /// The frame the last step's search was made from, if it searched.
+    searched_from: Option<usize>,
 }
 
 impl<'a> Controller<'a> {
@@ -147,6 +149,7 @@ impl<'a> Controller<'a> {
             src_v: vec![0.0; db.dim()],
             dst_v: vec![0.0; db.dim()],
             out: db.row(start).to_vec(),
+            searched_from: None,
         };
         c.set_target(target)?;
         Ok(c)
@@ -198,6 +201,24 @@ impl<'a> Controller<'a> {
         &self.out
     }
 
+    /// The frames a search from `cur` must not return.
+    fn exclusion(&self, cur: usize) -> Option<Exclusion> {
+        self.exclude_radius.map(|radius| Exclusion { center: cur, radius })
+    }
+
+    /// The `k` best candidates of the search the last [`Controller::step`] made, best
+    /// first ([`FeatureDb::search_top`]; the first is [`StepInfo::best`]); empty if it
+    /// made none. Call it before the next [`Controller::set_target`].
+    ///
+    /// # Errors
+    /// As [`FeatureDb::search_top`].
+    pub fn candidates(&self, k: usize) -> Result<Vec<Match>> {
+        match self.searched_from {
+            Some(cur) => self.feats.search_top(self.feats.features(cur), &self.allowed, self.exclusion(cur), k),
+            None => Ok(Vec::new()),
+        }
+    }
+
     /// Produces the next output frame.
     ///
     /// # Errors
@@ -208,13 +229,14 @@ impl<'a> Controller<'a> {
         let at_end = !db.has_next(cur);
         let mut switched = false;
         let mut best = None;
+        self.searched_from = None;
         if self.until_search == 0 || at_end {
             self.until_search = self.interval;
             let continues_in_target = !at_end && db.label(cur + 1) == self.target;
             if !continues_in_target {
                 let query = self.feats.features(cur);
-                let exclude = self.exclude_radius.map(|radius| Exclusion { center: cur, radius });
-                best = self.feats.search(query, &self.allowed, exclude)?;
+                best = self.feats.search(query, &self.allowed, self.exclusion(cur))?;
+                self.searched_from = Some(cur);
                 match best {
                     Some(m) => {
                         db.velocity_into(cur, &mut self.src_v);
@@ -322,6 +344,22 @@ mod tests {
     /// The end of the playing segment forces a search before the timer: start 115 of a
     /// segment ending at 119 reaches label 1 at output frame 4 although the first scheduled
     /// search is at 10.
+    /// After a step that searched, the candidates begin with its best match and are all
+    /// target frames; after one that did not, there are none.
+    #[test]
+    fn candidates_are_the_last_searchs_runners_up() {
+        let (db, feats) = two_sines(1.0, 24);
+        let mut c = Controller::new(&db, &feats, 10, 1, 0, &ControllerSettings::default()).unwrap();
+        let info = c.step().unwrap();
+        let top = c.candidates(5).unwrap();
+        assert_eq!(top.len(), 5);
+        assert_eq!(Some(top[0]), info.best);
+        assert!(top.iter().all(|m| db.label(m.frame) == 1));
+        assert!(top.windows(2).all(|p| p[0].cost <= p[1].cost));
+        let next = c.step().unwrap();
+        assert!(next.best.is_none() && c.candidates(5).unwrap().is_empty());
+    }
+
     #[test]
     fn segment_end_forces_a_search() {
         let (db, feats) = two_sines(1.0, 24);

@@ -158,6 +158,40 @@ impl FeatureDb {
         Ok(best)
     }
 
+    /// The `k` best frames of the search [`FeatureDb::search_brute`] makes, best first:
+    /// increasing cost, ties to the lower frame, so the first is that search's answer.
+    /// Fewer than `k` where fewer frames qualify. Exhaustive, $O(n\,d + n \log k)$: for
+    /// showing a search's runners-up, not for the search itself.
+    ///
+    /// # Errors
+    /// As [`FeatureDb::search_brute`].
+    pub fn search_top(
+        &self,
+        query: &[f64],
+        allowed: &FrameSet,
+        exclude: Option<Exclusion>,
+        k: usize,
+    ) -> Result<Vec<Match>> {
+        self.check_search(query, allowed)?;
+        let mut top: Vec<Match> = Vec::with_capacity(k + 1);
+        let kth = |top: &Vec<Match>| if top.len() < k { f64::INFINITY } else { top[k - 1].cost };
+        for w in 0..allowed.words().len() {
+            let mut bits = self.candidates(allowed, exclude, w);
+            while bits != 0 && k > 0 {
+                let t = w * LARGE + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let cost = cost_until(query, self.features(t), f64::INFINITY);
+                // Frames come in increasing order, so an equal cost goes after the ones kept.
+                if top.len() < k || cost < kth(&top) {
+                    let at = top.partition_point(|m| m.cost <= cost);
+                    top.insert(at, Match { frame: t, cost });
+                    top.truncate(k);
+                }
+            }
+        }
+        Ok(top)
+    }
+
     /// Same answer as [`FeatureDb::search_brute`] (frame and cost), faster.
     ///
     /// Branch and bound: the 64-frame blocks holding candidates are visited in increasing
@@ -245,6 +279,38 @@ mod tests {
         let ex = Some(Exclusion { center: t, radius: 3 });
         let m = feats.search(feats.features(t), &all, ex).unwrap().unwrap();
         assert!(m.frame.abs_diff(t) > 3 && m.cost > 0.0);
+    }
+
+    /// The top-k search starts with the search's answer, is sorted by (cost, frame), has
+    /// min(k, candidates) entries, and each is a candidate no left-out frame beats.
+    #[test]
+    fn top_k_is_the_search_and_its_runners_up() {
+        let (db, feats) = random_walk(600, 4, 5);
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let all = FrameSet::all(db.len());
+        for i in 0..40 {
+            let base = rng.gen_range(0..db.len());
+            let q: Vec<f64> = feats.features(base).iter().map(|v| v + rng.gen_range(-0.3..0.3)).collect();
+            let ex = (i % 2 == 0).then_some(Exclusion { center: base, radius: 5 });
+            let k = [1, 5, 10][i % 3];
+            let top = feats.search_top(&q, &all, ex, k).unwrap();
+            let best = feats.search_brute(&q, &all, ex).unwrap().unwrap();
+            assert_eq!(top[0], best);
+            assert_eq!(top.len(), k);
+            assert!(top.windows(2).all(|p| (p[0].cost, p[0].frame) < (p[1].cost, p[1].frame)));
+            // Every other candidate costs at least the k-th.
+            let kth = top[k - 1].cost;
+            for t in feats.searchable().iter().filter(|t| ex.is_none_or(|e| t.abs_diff(e.center) > e.radius)) {
+                if top.iter().all(|m| m.frame != t) {
+                    let c: f64 = q.iter().zip(feats.features(t)).map(|(a, b)| (a - b) * (a - b)).sum();
+                    assert!(c >= kth, "frame {t} costs {c} < the k-th's {kth}");
+                }
+            }
+        }
+        // Fewer candidates than k: all of them; k = 0: none.
+        let one = FrameSet::from_frames(db.len(), [feats.searchable().iter().next().unwrap()]).unwrap();
+        assert_eq!(feats.search_top(feats.features(0), &one, None, 5).unwrap().len(), 1);
+        assert!(feats.search_top(feats.features(0), &all, None, 0).unwrap().is_empty());
     }
 
     /// §7.6 (b): the accelerated search equals brute force (frame and cost) on 500 random

@@ -75,6 +75,10 @@ pub struct ServeArgs {
     /// Where each session's recording is written (relative to the pipeline's directory).
     #[arg(long, value_name = "DIR", default_value = "recordings")]
     pub record_dir: PathBuf,
+    /// The Tic-Tac-Toe game file (docs/live.md); default `game.toml` beside the pipeline,
+    /// if there is one.
+    #[arg(long, value_name = "FILE")]
+    pub game: Option<PathBuf>,
 }
 
 /// `reprise init`.

@@ -22,6 +22,9 @@ pub const ROLES: [(&str, &str); 9] = [
     ("controls", "--controls"),
 ];
 
+/// The game file `reprise serve` uses when none is named, beside the pipeline.
+pub const GAME_FILE: &str = "game.toml";
+
 /// The files of [`ROLES`] in the pipeline at `args.pipeline`: for each role, the first
 /// stage input of that name (in the pipeline's stage order).
 ///
@@ -64,6 +67,14 @@ pub fn serve(args: &ServeArgs, dirs: &BinDirs) -> Result<()> {
     cmd.arg("--listen").arg(&args.listen);
     cmd.arg("--max-sessions").arg(args.max_sessions.to_string());
     cmd.arg("--record-dir").arg(&args.record_dir);
+    // The game file the user named (from where they stand), else the pipeline's own.
+    let game = match &args.game {
+        Some(g) => Some(std::path::absolute(g).map_err(|e| Error::Serve(format!("{}: {e}", g.display())))?),
+        None => Some(dir.join(GAME_FILE)).filter(|g| g.is_file()),
+    };
+    if let Some(g) = game {
+        cmd.arg("--game").arg(g);
+    }
     let status = cmd.status().map_err(|e| Error::Serve(format!("cannot start reprise-serve: {e}")))?;
     match status.code() {
         Some(0) => Ok(()),

@@ -3,11 +3,16 @@
 // frames interpolated at display rate), shows each frame's debug record, and sends
 // commands. Frame layout: crates/serve/src/protocol.rs. After the first frame is drawn
 // the page sets data-frames (frames drawn) and data-labels (each view's label) on
-// <body>, for tests; the game sets data-game (its state as JSON).
+// <body>, for tests; the game sets data-game (its state as JSON). Command to pixels:
+// for each command the page sends, the time from sending it to the first draw of the
+// frame it is stamped with (the `ok` reply names it), in window.reprise.latencies (ms).
 (function () {
   "use strict";
   var W = null, ws = null, views = [], systems = [], last = null, prev = null, lastAt = 0, frames = 0;
   var cam = { yaw: 0, pitch: 0, dist: 1.9 };
+  // Commands sent and not yet answered (send times), and answered ones whose frame is not
+  // yet drawn ({frame, sent}); the latencies measured (the last 1,000).
+  var unanswered = [], undrawn = [], latencies = [];
   var $ = function (id) { return document.getElementById(id); };
 
   function log(text) {
@@ -151,7 +156,12 @@
     var d = m.debug, t = "label " + W.labels[m.label] + "  phase " + m.phase + "\n";
     if (d.kind === "reprise") t += "x = (" + fmt(d.x) + ")\n" + (d.aim ? "bridge x1 = (" + fmt(d.aim) + ")" : "no bridge aimed at");
     else if (d.kind === "motion-graphs") t += "node " + d.node + "\nplanned " + d.planned.length + (d.planned.length ? " → " + d.planned[d.planned.length - 1] : "");
-    else if (d.kind === "motion-matching") t += "frame " + d.frame + (d.best ? "\nsearch: best " + d.best[0] + " cost " + d.best[1].toFixed(3) : "") + (d.switched ? "  (jumped)" : "");
+    else if (d.kind === "motion-matching") {
+      t += "frame " + d.frame + (d.switched ? "  (jumped)" : "");
+      if (d.candidates.length) t += "\nsearch (frame · label · cost):" + d.candidates.map(function (c) {
+        return "\n  " + c[0] + " · " + W.labels[c[1]] + " · " + c[2].toFixed(3);
+      }).join("");
+    }
     else if (d.kind === "crossfade") t += "frame " + d.frame + "\nsource weight " + d.source_weight.toFixed(2);
     if (m.note) t += "\nnote: " + m.note;
     return t;
@@ -177,8 +187,14 @@
 
   function render() {
     if (last) {
-      var t = Math.min(1, (performance.now() - lastAt) * W.fps / 1000);
+      var now = performance.now(), t = Math.min(1, (now - lastAt) * W.fps / 1000);
       views.forEach(function (v, i) { v.draw(prev.meshes[i], last.meshes[i], t); });
+      undrawn = undrawn.filter(function (u) {
+        if (last.frame < u.frame) return true;
+        latencies.push(now - u.sent);
+        if (latencies.length > 1000) latencies.shift();
+        return false;
+      });
     }
     requestAnimationFrame(render);
   }
@@ -190,7 +206,7 @@
     document.querySelectorAll("#system-choice input:checked").forEach(function (c) { systems.push(c.value); });
     $("views").innerHTML = "";
     views = systems.map(function (s, i) { var v = new View(i, s); orbit(v.canvas); return v; });
-    last = prev = null; frames = 0;
+    last = prev = null; frames = 0; unanswered = []; undrawn = [];
     var url = (location.protocol === "https:" ? "wss://" : "ws://") + location.host + "/session?systems=" +
       encodeURIComponent(systems.join(",")) + "&start=" + encodeURIComponent($("start").value) + "&seed=" + encodeURIComponent($("seed").value || "0");
     ws = new WebSocket(url);
@@ -200,8 +216,10 @@
       if (typeof e.data === "string") {
         var r = JSON.parse(e.data);
         if (r.game) { showGame(r.game); return; }
-        if (r.error) log("error: " + r.error);
-        else r.ok.systems.forEach(function (s) { if (!s.taken) log(s.system + ": " + (s.ignored || s.refused)); });
+        // An error may answer a game action as well: the pending commands are not matched.
+        if (r.error) { unanswered = []; log("error: " + r.error); }
+        else if (unanswered.length) undrawn.push({ frame: r.ok.frame, sent: unanswered.shift() });
+        if (r.ok) r.ok.systems.forEach(function (s) { if (!s.taken) log(s.system + ": " + (s.ignored || s.refused)); });
         return;
       }
       onFrame(decode(e.data));
@@ -210,8 +228,10 @@
   }
 
   function send(c) {
-    if (ws && ws.readyState === 1) ws.send(JSON.stringify(c));
-    else log("not connected");
+    if (ws && ws.readyState === 1) {
+      if (c.type !== "mark" && c.type !== "new-game") unanswered.push(performance.now());
+      ws.send(JSON.stringify(c));
+    } else log("not connected");
   }
 
   // ---- the game ----
@@ -265,7 +285,7 @@
     };
   }
 
-  window.reprise = { send: send, connect: connect, camera: cam, goTo: function (label) { send({ type: "transition", to: label }); } };
+  window.reprise = { send: send, connect: connect, camera: cam, latencies: latencies, goTo: function (label) { send({ type: "transition", to: label }); } };
 
   fetch("/world").then(function (r) { return r.json(); }).then(function (w) {
     W = w;

@@ -13,6 +13,8 @@
 //!   at most [`limits::COMMANDS_PER_SECOND`] commands per second per session (a burst of
 //!   [`limits::BURST`]; beyond it, refused), and a client that keeps flooding is
 //!   disconnected; a session lasts at most `--max-minutes`. No message names a file.
+//! - `GET /stats`: the server's own timings ([`stats::Report`]): making a frame, tick
+//!   lateness, command to first frame.
 //! - **Recording**: when a session ends its [`reprise_live::session::Recording`] is
 //!   written to `--record-dir` (a new file per session, never one that exists), for
 //!   `reprise replay`.
@@ -20,6 +22,7 @@
 pub mod limits;
 pub mod protocol;
 pub mod record;
+pub mod stats;
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -42,6 +45,7 @@ use tokio::sync::Semaphore;
 
 use crate::limits::{RateLimit, MAX_MESSAGE_BYTES};
 use crate::protocol::Quantizer;
+use crate::stats::{Measure, Stats};
 
 /// `reprise-serve` (run as `reprise serve`, which finds the artifacts of a pipeline).
 #[derive(Debug, Clone, clap::Parser)]
@@ -134,6 +138,8 @@ pub struct App {
     world: &'static World,
     quant: Quantizer,
     sessions: Arc<Semaphore>,
+    max_sessions: usize,
+    stats: Stats,
     max_minutes: f64,
     record_dir: PathBuf,
     world_json: String,
@@ -158,6 +164,8 @@ impl App {
             world,
             quant,
             sessions: Arc::new(Semaphore::new(max_sessions)),
+            max_sessions,
+            stats: Stats::default(),
             max_minutes,
             record_dir,
             world_json,
@@ -175,6 +183,14 @@ pub fn router(app: Arc<App>) -> Router {
             "/world",
             get(|State(app): State<Arc<App>>| async move {
                 ([(header::CONTENT_TYPE, "application/json")], app.world_json.clone())
+            }),
+        )
+        .route(
+            "/stats",
+            get(|State(app): State<Arc<App>>| async move {
+                let open = app.max_sessions - app.sessions.available_permits();
+                let body = serde_json::to_string(&app.stats.report(open)).unwrap_or_default();
+                ([(header::CONTENT_TYPE, "application/json")], body)
             }),
         )
         .route("/session", get(session))
@@ -197,6 +213,9 @@ struct Start {
 
 /// A frame not taken by the client within this long ends its session.
 pub const SEND_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// Command arrivals remembered between two frames, for [`Measure::CommandToFrame`].
+const MAX_PENDING_ARRIVALS: usize = 64;
 
 /// The most systems one session may run.
 const MAX_SYSTEMS: usize = SYSTEM_IDS.len();
@@ -246,9 +265,14 @@ async fn run_session(app: Arc<App>, mut session: Session, mut socket: WebSocket)
     let deadline = tokio::time::Instant::now() + Duration::from_secs_f64(app.max_minutes * 60.0);
     let mut rate = RateLimit::new(tokio::time::Instant::now().into_std());
     let mut game_version = session.game().map(|g| g.version);
+    // Arrivals of the commands taken since the last frame (at most the rate limit's burst
+    // and a frame's refill; bounded again here).
+    let mut arrivals: Vec<std::time::Instant> = Vec::new();
     loop {
         tokio::select! {
-            _ = tick.tick() => {
+            due = tick.tick() => {
+                let began = std::time::Instant::now();
+                app.stats.record(Measure::TickLate, began.saturating_duration_since(due.into_std()));
                 if tokio::time::Instant::now() > deadline {
                     let _ = socket.send(Message::Text(r#"{"error":"the session's time is up"}"#.into())).await;
                     break;
@@ -262,10 +286,14 @@ async fn run_session(app: Arc<App>, mut session: Session, mut socket: WebSocket)
                         break;
                     }
                 };
+                app.stats.record(Measure::FrameMake, began.elapsed());
                 // A client that stops reading is dropped rather than left holding a session.
                 match tokio::time::timeout(SEND_TIMEOUT, socket.send(Message::Binary(bytes.into()))).await {
                     Ok(Ok(())) => {}
                     _ => break,
+                }
+                for a in arrivals.drain(..) {
+                    app.stats.record(Measure::CommandToFrame, a.elapsed());
                 }
                 // The character moved (its turn ended on this frame): the page is told.
                 if let Some(g) = session.game().filter(|g| Some(g.version) != game_version) {
@@ -289,7 +317,12 @@ async fn run_session(app: Arc<App>, mut session: Session, mut socket: WebSocket)
                 let reply = match rate.take(tokio::time::Instant::now().into_std()) {
                     limits::Verdict::Allow => match ClientMessage::parse(text.as_str(), &world.labels) {
                         Ok(ClientMessage::Command(c)) => match session.command(c) {
-                            Ok(outcomes) => protocol::outcomes_json(session.frame(), &session.recording().systems, &outcomes),
+                            Ok(outcomes) => {
+                                if arrivals.len() < MAX_PENDING_ARRIVALS {
+                                    arrivals.push(std::time::Instant::now());
+                                }
+                                protocol::outcomes_json(session.frame(), &session.recording().systems, &outcomes)
+                            }
                             Err(e) => protocol::error_json(&e),
                         },
                         Ok(ClientMessage::Game(a)) => match session.act(a) {
