@@ -134,11 +134,13 @@ impl Browser {
         r["result"]["value"].clone()
     }
 
-    /// Evaluates `js` every 50 ms until it is true; false after `seconds`.
+    /// Evaluates `js` every 50 ms until it is true; false after `seconds`. An expression
+    /// that throws (the page still loading: no `document.body` yet) counts as false.
     pub async fn wait_for(&mut self, js: &str, seconds: f64) -> bool {
         let end = std::time::Instant::now() + Duration::from_secs_f64(seconds);
+        let guarded = format!("(() => {{ try {{ return ({js}) === true; }} catch (e) {{ return false; }} }})()");
         while std::time::Instant::now() < end {
-            if self.eval(js).await == json!(true) {
+            if self.eval(&guarded).await == json!(true) {
                 return true;
             }
             tokio::time::sleep(Duration::from_millis(50)).await;

@@ -568,7 +568,7 @@ impl Character for Crossfade {
 
     fn step(&mut self) -> LiveFrame {
         let w = self.world;
-        if !self.fade.blending() {
+        if self.fade.interruptible() {
             if let Some(c) = self.pending.take() {
                 self.apply(&c);
             }

@@ -102,6 +102,8 @@ pub struct Crossfader<'a> {
     b: usize,
     /// Frames into the blend.
     p: usize,
+    /// Whether the blend is one the rule chained at a segment's end (not one asked for).
+    chained: bool,
 }
 
 /// One frame of a [`Crossfader`].
@@ -124,8 +126,16 @@ impl<'a> Crossfader<'a> {
     /// As [`crossfade`].
     pub fn new(db: &'a Database, start: usize, target: u32, blend_frames: usize) -> Result<Self> {
         db.check_frame(start)?;
-        let mut fade =
-            Self { db, target, blend_frames: 0, candidates: FrameSet::empty(db.len()), a: start, b: start, p: 0 };
+        let mut fade = Self {
+            db,
+            target,
+            blend_frames: 0,
+            candidates: FrameSet::empty(db.len()),
+            a: start,
+            b: start,
+            p: 0,
+            chained: false,
+        };
         fade.retarget(target, blend_frames)?;
         Ok(fade)
     }
@@ -159,6 +169,16 @@ impl<'a> Crossfader<'a> {
         self.p < self.blend_frames
     }
 
+    /// Whether a new crossfade may start now without leaving a half-blended pose: no blend
+    /// is under way, or one the rule chained at a segment's end is about to begin (the frame
+    /// shown last was the segment's last, unblended). A live character that waits for
+    /// blends to end must accept this too: a take whose last frame is nearest its own
+    /// frame `blend_frames` before the end chains into itself for ever, never between
+    /// blends otherwise.
+    pub fn interruptible(&self) -> bool {
+        !self.blending() || (self.chained && self.p == 0)
+    }
+
     /// A new crossfade, from the frame shown last, into label `target`.
     ///
     /// # Errors
@@ -168,10 +188,11 @@ impl<'a> Crossfader<'a> {
         let none = MatchError::NoSearchableFrames { label: target, needed: 1 };
         let blend = crossfade_blend(self.db, target, blend_frames).ok_or(none.clone())?;
         let candidates = crossfade_candidates(self.db, target, blend);
-        let shown = self.b;
+        // Before a chained blend's first frame the segment's held last frame is the one shown.
+        let shown = if self.chained && self.p == 0 { self.a } else { self.b };
         let m = nearest_pose(self.db, self.db.row(shown), &candidates)?.ok_or(none)?;
         (self.target, self.blend_frames, self.candidates) = (target, blend, candidates);
-        (self.a, self.b, self.p) = (shown, m.frame + 1, 0);
+        (self.a, self.b, self.p, self.chained) = (shown, m.frame + 1, 0, false);
         Ok(())
     }
 
@@ -216,7 +237,7 @@ impl<'a> Crossfader<'a> {
             // The same rule chains a new crossfade from the held last frame.
             let none = MatchError::NoSearchableFrames { label: self.target, needed: 1 };
             let m = nearest_pose(db, db.row(self.b), &self.candidates)?.ok_or(none)?;
-            (self.a, self.b, self.p) = (self.b, m.frame + 1, 0);
+            (self.a, self.b, self.p, self.chained) = (self.b, m.frame + 1, 0, true);
         }
         Ok(frame)
     }
@@ -235,6 +256,38 @@ mod tests {
         let z = vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 10.0, 2.2, 7.0, 3.1, 9.0, 9.0, 8.0, 3.0];
         let labels: Vec<u32> = (0..14).map(|t| u32::from(t >= 6)).collect();
         Database::new(z, 1, labels.clone(), &labels, 24.0).unwrap()
+    }
+
+    /// A take whose last frame is nearest its own frame k before the end chains into itself
+    /// for ever, blending at every frame; it is interruptible between two such blends, and a
+    /// crossfade started there leaves from the held last frame and reaches its label.
+    #[test]
+    fn a_self_chaining_take_is_interruptible_between_blends() {
+        // Label 0: frames 0..=5, z = 0..5. Label 1: frames 6..=13, z = 0..5, 6, 6: the
+        // end (6) is nearest frame 11 (5), so each chain plays 12, 13 and chains again.
+        let z = vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 6.0];
+        let labels: Vec<u32> = (0..14).map(|t| u32::from(t >= 6)).collect();
+        let db = Database::new(z, 1, labels.clone(), &labels, 24.0).unwrap();
+        let mut f = Crossfader::playing(&db, 7, 1, 2).unwrap();
+        let mut row = [0.0];
+        let mut interruptible_at = Vec::new();
+        for i in 0..20 {
+            let out = f.step(&mut row).unwrap();
+            if i >= 8 {
+                assert!(out.frame >= 12 && f.blending(), "frame {i}: {out:?} loops in a blend");
+            }
+            if f.interruptible() {
+                interruptible_at.push(i);
+            }
+        }
+        assert!(interruptible_at.len() >= 8, "{interruptible_at:?}");
+        // From there: a crossfade from the held last frame (z = 6) into label 0's nearest
+        // candidate (frame 3, z = 3: 0..=3 have 2 frames left), ½·6 + ½·z₄ = 5 first.
+        f.retarget(0, 2).unwrap();
+        assert_abs_diff_eq!(f.step(&mut row).unwrap().source_weight, 0.5, epsilon = 1e-12);
+        assert_abs_diff_eq!(row[0], 5.0, epsilon = 1e-12);
+        let out = f.step(&mut row).unwrap();
+        assert_eq!((out.label, row[0]), (0, 5.0));
     }
 
     /// The nearest candidate is chosen, and the output is the hand-computed blend:

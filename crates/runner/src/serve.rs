@@ -50,7 +50,8 @@ pub fn files(args: &ServeArgs, dirs: &BinDirs) -> Result<(PathBuf, Vec<(&'static
     Ok((pipeline.dir, out))
 }
 
-/// Runs the server until it stops.
+/// Runs the server until it stops: on Unix the runner's process becomes `reprise-serve`
+/// (its exit status is the server's).
 ///
 /// # Errors
 /// As [`files`]; [`Error::NoBin`]-like [`Error::Serve`] when `reprise-serve` is not found;
@@ -75,6 +76,22 @@ pub fn serve(args: &ServeArgs, dirs: &BinDirs) -> Result<()> {
     if let Some(g) = game {
         cmd.arg("--game").arg(g);
     }
+    // The runner becomes the server, so a signal for `reprise serve` (Ctrl-C, a kill)
+    // reaches it and no server outlives the command that started it.
+    #[cfg(unix)]
+    {
+        let e = std::os::unix::process::CommandExt::exec(&mut cmd);
+        Err(Error::Serve(format!("cannot start reprise-serve: {e}")))
+    }
+    #[cfg(not(unix))]
+    {
+        wait(&mut cmd)
+    }
+}
+
+/// Runs `cmd` to its end (where the runner cannot become the server).
+#[cfg(not(unix))]
+fn wait(cmd: &mut std::process::Command) -> Result<()> {
     let status = cmd.status().map_err(|e| Error::Serve(format!("cannot start reprise-serve: {e}")))?;
     match status.code() {
         Some(0) => Ok(()),

@@ -44,6 +44,7 @@
     this.debug = box.querySelector(".debug");
     this.tint = TINTS[index % TINTS.length];
     this.label = -1;
+    this.search = null;
     var gl = this.canvas.getContext("webgl2", { antialias: true });
     this.gl = gl;
     if (!gl) { this.debug.textContent = "WebGL2 is not available in this browser"; return; }
@@ -152,13 +153,16 @@
 
   function fmt(x) { return x.map(function (v) { return v.toFixed(2); }).join(", "); }
 
-  function describe(m) {
+  // The view's text for frame f's record m; motion matching's last search stays shown,
+  // with its age, until the next one.
+  function describe(v, f, m) {
     var d = m.debug, t = "label " + W.labels[m.label] + "  phase " + m.phase + "\n";
     if (d.kind === "reprise") t += "x = (" + fmt(d.x) + ")\n" + (d.aim ? "bridge x1 = (" + fmt(d.aim) + ")" : "no bridge aimed at");
     else if (d.kind === "motion-graphs") t += "node " + d.node + "\nplanned " + d.planned.length + (d.planned.length ? " → " + d.planned[d.planned.length - 1] : "");
     else if (d.kind === "motion-matching") {
       t += "frame " + d.frame + (d.switched ? "  (jumped)" : "");
-      if (d.candidates.length) t += "\nsearch (frame · label · cost):" + d.candidates.map(function (c) {
+      if (d.candidates.length) v.search = { at: f, candidates: d.candidates };
+      if (v.search) t += "\nsearch " + (f - v.search.at) + " frame(s) ago (frame · label · cost):" + v.search.candidates.map(function (c) {
         return "\n  " + c[0] + " · " + W.labels[c[1]] + " · " + c[2].toFixed(3);
       }).join("");
     }
@@ -176,7 +180,7 @@
     f.meta.forEach(function (m, i) {
       if (!views[i]) return;
       views[i].label = m.label;
-      views[i].debug.textContent = describe(m);
+      views[i].debug.textContent = describe(views[i], f.frame, m);
       if (m.note) log(m.system + ": " + m.note);
       labels.push(W.labels[m.label]);
     });
