@@ -15,7 +15,7 @@ dir=${1:-artifacts/dragon-face}
 seconds=${2:-20}
 [ -f "$dir/bridges.parquet" ] && [ -f "$dir/mg_edges.parquet" ] \
   || { echo "$dir has no bridges or Motion Graph: target/release/reprise run"; exit 1; }
-cargo build --release -q -p reprise-serve --bin reprise-serve --example load
+cargo build --release -q -p reprise --bin reprise-serve && cargo build --release -q -p reprise-serve --example load
 cargo build --release -q -p reprise-live --example live_bench
 cores=$(nproc)
 pin() { if [ "$cores" -ge 2 ]; then taskset -c "$1" "${@:2}"; else "${@:2}"; fi; }

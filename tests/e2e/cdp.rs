@@ -112,11 +112,9 @@ impl Browser {
         match v["method"].as_str() {
             Some("Runtime.exceptionThrown") => self.errors.push(p["exceptionDetails"].to_string()),
             Some("Runtime.consoleAPICalled") if p["type"] == "error" => self.errors.push(p["args"].to_string()),
-            Some("Log.entryAdded") if p["entry"]["level"] == "error" => {
-                // The network stack's own complaints (a favicon) are not the page's.
-                if p["entry"]["source"] != "network" {
-                    self.errors.push(p["entry"].to_string());
-                }
+            // The network stack's own complaints (a favicon) are not the page's.
+            Some("Log.entryAdded") if p["entry"]["level"] == "error" && p["entry"]["source"] != "network" => {
+                self.errors.push(p["entry"].to_string());
             }
             _ => {}
         }
