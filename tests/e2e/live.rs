@@ -107,7 +107,9 @@ pub(crate) fn serve_smoke(p: &Project) {
         assert!(world["game"].is_object(), "the game file init wrote is loaded: {}", world["game"]);
         let labels: Vec<String> = serde_json::from_value(world["labels"].clone()).unwrap();
         let all = reprise_live::systems::SYSTEM_IDS.join(",");
-        let mut ws = connect(&server.addr, &format!("systems={all}&start={}", labels[0])).await.unwrap();
+        let startable: Vec<bool> = serde_json::from_value(world["startable"].clone()).unwrap();
+        let start = startable.iter().position(|&s| s).expect("a label every system can start in");
+        let mut ws = connect(&server.addr, &format!("systems={all}&start={}", labels[start])).await.unwrap();
         let mut frames = Vec::new();
         ws.send(Message::Text(r#"{"type":"new-game"}"#.into())).await.unwrap();
         let game = next_text(&mut ws, &mut frames).await.unwrap();
@@ -115,7 +117,7 @@ pub(crate) fn serve_smoke(p: &Project) {
         ws.send(Message::Text(r#"{"type":"mark","cell":4}"#.into())).await.unwrap();
         let game = next_text(&mut ws, &mut frames).await.unwrap();
         assert!(game.contains(r#""board":[".",".",".",".","X""#), "{game}");
-        let c = format!(r#"{{"type":"transition","to":"{}"}}"#, labels[1]);
+        let c = format!(r#"{{"type":"transition","to":"{}"}}"#, labels[(start + 1) % labels.len()]);
         ws.send(Message::Text(c.into())).await.unwrap();
         let mut reply = next_text(&mut ws, &mut frames).await.unwrap();
         while reply.contains(r#""game""#) {

@@ -299,8 +299,11 @@
       l.appendChild(c); l.appendChild(document.createTextNode(" " + s + " "));
       $("system-choice").appendChild(l);
     });
-    W.labels.forEach(function (l) {
+    var first = W.startable.indexOf(true);
+    W.labels.forEach(function (l, i) {
       var o = document.createElement("option"); o.textContent = l; $("start").appendChild(o);
+      // A label some system has no frame in cannot start a session.
+      o.disabled = !W.startable[i]; o.selected = i === first;
       var b = document.createElement("button"); b.textContent = l; b.dataset.label = l;
       b.onclick = function () { send({ type: "transition", to: l }); };
       $("labels").appendChild(b);

@@ -41,16 +41,19 @@ async fn get(addr: SocketAddr, path: &str) -> String {
     out.split_once("\r\n\r\n").map(|(_, b)| b.to_string()).unwrap_or_default()
 }
 
-async fn session(addr: SocketAddr, systems: String, labels: Vec<String>, index: usize, seconds: f64) -> Seen {
-    // Each session starts in its own label where every system can (not all can start
-    // everywhere: Motion Graphs has no roar frame on the default corpus), else the first.
-    let url = |start: &str| format!("ws://{addr}/session?systems={systems}&start={start}&seed={index}");
+async fn session(
+    addr: SocketAddr,
+    systems: String,
+    labels: Vec<String>,
+    starts: Vec<String>,
+    index: usize,
+    seconds: f64,
+) -> Seen {
+    // Each session starts in its own label among those every system can start in.
+    let start = &starts[index % starts.len()];
+    let url = format!("ws://{addr}/session?systems={systems}&start={start}&seed={index}");
     let mut seen = Seen::default();
-    let connected = match tokio_tungstenite::connect_async(url(&labels[index % labels.len()])).await {
-        Ok(c) => Ok(c),
-        Err(_) => tokio_tungstenite::connect_async(url(&labels[0])).await,
-    };
-    let mut ws = match connected {
+    let mut ws = match tokio_tungstenite::connect_async(url).await {
         Ok((ws, _)) => ws,
         Err(e) => {
             seen.errors.push(format!("session {index} refused: {e}"));
@@ -142,9 +145,13 @@ async fn main() {
     let systems = args.get(4).cloned().unwrap_or_else(|| "reprise,motion-graphs,motion-matching,crossfade".into());
     let world: serde_json::Value = serde_json::from_str(&get(addr, "/world").await).expect("GET /world");
     let labels: Vec<String> = serde_json::from_value(world["labels"].clone()).expect("labels");
+    let startable: Vec<bool> = serde_json::from_value(world["startable"].clone()).expect("startable");
+    let starts: Vec<String> = labels.iter().zip(&startable).filter(|(_, &s)| s).map(|(l, _)| l.clone()).collect();
+    assert!(!starts.is_empty(), "no label every system can start in");
     let fps = world["fps"].as_f64().expect("fps");
-    let tasks: Vec<_> =
-        (0..n).map(|i| tokio::spawn(session(addr, systems.clone(), labels.clone(), i, seconds))).collect();
+    let tasks: Vec<_> = (0..n)
+        .map(|i| tokio::spawn(session(addr, systems.clone(), labels.clone(), starts.clone(), i, seconds)))
+        .collect();
     let mut all = Vec::new();
     for t in tasks {
         all.push(t.await.expect("a session task"));

@@ -161,6 +161,8 @@ pub fn world_json(world: &World, quant: &Quantizer, game: Option<&GameFile>) -> 
     serde_json::json!({
         "fps": world.fps,
         "labels": world.labels,
+        // Per label, whether a session can start in it (every system has a frame there).
+        "startable": (0..world.labels.len()).map(|l| world.start_row(l).is_some()).collect::<Vec<_>>(),
         "systems": SYSTEM_IDS,
         "vertices": rig.vertex_count(),
         "triangles": triangles,
