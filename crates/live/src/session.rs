@@ -69,7 +69,8 @@ impl std::fmt::Debug for Session {
 
 impl Session {
     /// Systems `systems` (ids of [`crate::systems::SYSTEM_IDS`]) starting at label
-    /// `start`'s first playable frame ([`World::start_row`]), seeded with `seed`.
+    /// `start`'s first playable frame ([`World::start_row_for`]: in the motion graph's
+    /// component when Motion Graphs is among them), seeded with `seed`.
     ///
     /// # Errors
     /// An unknown system or label, a label with no playable frame, or none or a repeated
@@ -78,9 +79,17 @@ impl Session {
         let label = world
             .label_index(start)
             .ok_or_else(|| format!("unknown label `{start}`; the labels are: {}", world.labels.join(", ")))?;
-        let row = world
-            .start_row(label)
-            .ok_or_else(|| format!("label `{start}` has no frame every system can start from"))?;
+        let with_graph = systems.iter().any(|s| s == "motion-graphs");
+        let row = world.start_row_for(label, with_graph).ok_or_else(|| {
+            if with_graph {
+                format!(
+                    "label `{start}` has no frame every system can start from (none of its frames is in the motion \
+                     graph's largest strongly connected component; without motion-graphs it may)"
+                )
+            } else {
+                format!("label `{start}` has no frame with a next frame in its take")
+            }
+        })?;
         if systems.is_empty() {
             return Err("a session needs at least one system".into());
         }

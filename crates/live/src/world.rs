@@ -190,11 +190,21 @@ impl World {
         self.labels.iter().position(|l| l == name)
     }
 
-    /// The row a session starting in `label` starts at: the label's first labeled frame
-    /// that is in the motion graph's component and has a next frame in its take.
+    /// The row a session of every system starting in `label` starts at: the label's first
+    /// labeled frame that is in the motion graph's component and has a next frame in its
+    /// take.
     pub fn start_row(&self, label: usize) -> Option<usize> {
+        self.start_row_for(label, true)
+    }
+
+    /// [`World::start_row`] for a session with Motion Graphs (`with_graph`) or without it:
+    /// without, any labeled frame of the label with a next frame in its take (a character
+    /// whose motion graph has no strongly connected component to speak of can still run
+    /// the other systems).
+    pub fn start_row_for(&self, label: usize, with_graph: bool) -> Option<usize> {
         let db = &self.corpus.db;
-        (0..self.labeled.frames.rows()).find(|&r| self.row_label[r] == label && self.alive[r] && db.has_next(r))
+        (0..self.labeled.frames.rows())
+            .find(|&r| self.row_label[r] == label && (self.alive[r] || !with_graph) && db.has_next(r))
     }
 
     /// The first labeled row of the take of label `label` named by `segment` id and/or

@@ -293,23 +293,26 @@
 
   fetch("/world").then(function (r) { return r.json(); }).then(function (w) {
     W = w;
+    // A character whose motion graph leaves out every label cannot start Motion Graphs.
+    var graph = W.startable.indexOf(true) >= 0, starts = graph ? W.startable : W.startable_without_graph;
     W.systems.forEach(function (s) {
       var l = document.createElement("label"), c = document.createElement("input");
-      c.type = "checkbox"; c.value = s; c.checked = s !== "reprise-paper";
+      c.type = "checkbox"; c.value = s; c.checked = s !== "reprise-paper" && (graph || s !== "motion-graphs");
       l.appendChild(c); l.appendChild(document.createTextNode(" " + s + " "));
       $("system-choice").appendChild(l);
     });
-    var first = W.startable.indexOf(true);
+    var first = starts.indexOf(true);
     W.labels.forEach(function (l, i) {
       var o = document.createElement("option"); o.textContent = l; $("start").appendChild(o);
-      // A label some system has no frame in cannot start a session.
-      o.disabled = !W.startable[i]; o.selected = i === first;
+      // A label the checked systems have no frame in cannot start a session.
+      o.disabled = !starts[i]; o.selected = i === first;
       var b = document.createElement("button"); b.textContent = l; b.dataset.label = l;
       b.onclick = function () { send({ type: "transition", to: l }); };
       $("labels").appendChild(b);
     });
     $("connect").onclick = connect;
     $("idle").onclick = function () { send({ type: "idle", radius: parseFloat($("radius").value) }); };
+    if (!graph) log("motion-graphs: no frame of any label is in its graph's largest strongly connected component; it cannot run on this character");
     buildGame();
     fillTakes();
     status(W.rig + " · " + W.labels.length + " labels · " + W.fps + " fps");

@@ -161,8 +161,11 @@ pub fn world_json(world: &World, quant: &Quantizer, game: Option<&GameFile>) -> 
     serde_json::json!({
         "fps": world.fps,
         "labels": world.labels,
-        // Per label, whether a session can start in it (every system has a frame there).
+        // Per label, whether a session of every system can start in it, and one without
+        // Motion Graphs (whose graph may leave out every frame of a small character).
         "startable": (0..world.labels.len()).map(|l| world.start_row(l).is_some()).collect::<Vec<_>>(),
+        "startable_without_graph":
+            (0..world.labels.len()).map(|l| world.start_row_for(l, false).is_some()).collect::<Vec<_>>(),
         "systems": SYSTEM_IDS,
         "vertices": rig.vertex_count(),
         "triangles": triangles,
