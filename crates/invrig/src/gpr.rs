@@ -149,6 +149,11 @@ pub fn mean_row_distance(a: &[f64], b: &[f64], cols: usize) -> f64 {
     total / rows.max(1) as f64
 }
 
+/// Rows `rows` of the row-major table `v` (`cols` values a row), in that order.
+pub(crate) fn gather(v: &[f64], cols: usize, rows: &[usize]) -> Vec<f64> {
+    rows.iter().flat_map(|&r| v[r * cols..(r + 1) * cols].iter().copied()).collect()
+}
+
 /// `count` values log-spaced over the paper's range $[10^{-4}, 10^2]$ for $\theta_0$.
 pub fn theta0_grid(count: usize) -> Vec<f64> {
     let (lo, hi) = (1e-4f64.ln(), 1e2f64.ln());
@@ -215,9 +220,6 @@ pub fn cross_validate(x: &[f64], d: usize, y: &[f64], c: usize, cv: &CvSettings)
             idx
         })
         .collect();
-    let gather = |v: &[f64], cols: usize, rows: &[usize]| -> Vec<f64> {
-        rows.iter().flat_map(|&r| v[r * cols..(r + 1) * cols].iter().copied()).collect()
-    };
     let mut errors = Vec::with_capacity(grid.len());
     for &theta0 in grid.iter() {
         let mut total = 0.0;

@@ -8,7 +8,7 @@
 //! costs $O(m^3 + (n - m)\,m\,(d + c))$ for $m$ taken of $n$.
 
 use crate::error::{check_table, InvrigError, Result};
-use crate::gpr::Gpr;
+use crate::gpr::{gather, Gpr};
 
 /// How many poses [`subsample`] takes, and how.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,9 +61,6 @@ pub fn subsample(x: &[f64], d: usize, y: &[f64], c: usize, rest: usize, s: &Subs
         }
     }
     // Eq. 10–12: the largest errors of the regression on what is taken.
-    let gather = |v: &[f64], cols: usize, rows: &[usize]| -> Vec<f64> {
-        rows.iter().flat_map(|&r| v[r * cols..(r + 1) * cols].iter().copied()).collect()
-    };
     let mut pred = vec![0.0; c];
     while taken.len() < total {
         let g = Gpr::fit(&gather(x, d, &taken), d, &gather(y, c, &taken), c, s.theta0, s.theta1)?;
