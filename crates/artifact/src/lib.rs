@@ -35,13 +35,17 @@ mod kinds {
     pub mod curves;
     pub mod frames;
     pub mod gplvm;
+    pub mod invrig;
     pub mod motion_graph;
     pub mod pca;
+    pub mod positions;
     pub mod scales;
     pub mod segments;
     pub mod transitions;
 }
-pub use kinds::{bridges, clips, controls, curves, frames, gplvm, motion_graph, pca, scales, segments, transitions};
+pub use kinds::{
+    bridges, clips, controls, curves, frames, gplvm, invrig, motion_graph, pca, positions, scales, segments, transitions,
+};
 
 pub use error::{ArtifactError, Result};
 pub use provenance::Provenance;

@@ -11,11 +11,16 @@
 //! - [`refine`]: damped least squares on the rig's Jacobian (Eq. 13), with a
 //!   finite-difference Jacobian evaluated in one batch of poses.
 //!
+//! - [`mapping`]: a fitted mapping and the ways of applying it (the paper's Table 1).
+//! - [`points`]: which mesh points the mapping reads.
+//!
 //! Data are row-major: `n` rows of `d` position coordinates (`x`) or `c` controls (`y`).
 //! Units are the caller's; nothing here rescales.
 
 pub mod error;
 pub mod gpr;
+pub mod mapping;
+pub mod points;
 pub mod refine;
 pub mod subsample;
 

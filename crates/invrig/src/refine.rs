@@ -50,23 +50,34 @@ fn evaluate(rig: &mut dyn Rig, poses: &[f64], count: usize) -> Result<Vec<f64>> 
 }
 
 /// The positions at `y` and the forward-difference Jacobian there, $d \times c$:
-/// $J_{:,j} = (f(y + h e_j) - f(y))/h$, the $c + 1$ poses evaluated in one batch.
+/// $J_{:,j} = (f(y + h e_j) - f(y))/h$ for every control `j` that is `free` (all without a
+/// mask; the other columns are zero), the poses evaluated in one batch.
 ///
 /// # Errors
-/// [`InvrigError::Param`] for a step not finite and positive; the rig's errors.
-pub fn fd_jacobian(rig: &mut dyn Rig, y: &[f64], step: f64) -> Result<(Vec<f64>, Mat<f64>)> {
+/// [`InvrigError::Param`] for a step not finite and positive; a mask of the wrong length;
+/// the rig's errors.
+pub fn fd_jacobian(rig: &mut dyn Rig, y: &[f64], step: f64, free: Option<&[bool]>) -> Result<(Vec<f64>, Mat<f64>)> {
     check_positive("step", step)?;
     let (c, d) = (rig.controls(), rig.positions());
     check_table("controls", y, 1, c)?;
-    let mut poses = Vec::with_capacity((c + 1) * c);
-    poses.extend_from_slice(y);
-    for j in 0..c {
-        poses.extend_from_slice(y);
-        poses[(j + 1) * c + j] += step;
+    if let Some(f) = free.filter(|f| f.len() != c) {
+        return Err(InvrigError::Shape { what: "free controls", expected: c, actual: f.len() });
     }
-    let x = evaluate(rig, &poses, c + 1)?;
+    let columns: Vec<usize> = (0..c).filter(|&j| free.is_none_or(|f| f[j])).collect();
+    let mut poses = Vec::with_capacity((columns.len() + 1) * c);
+    poses.extend_from_slice(y);
+    for (k, &j) in columns.iter().enumerate() {
+        poses.extend_from_slice(y);
+        poses[(k + 1) * c + j] += step;
+    }
+    let x = evaluate(rig, &poses, columns.len() + 1)?;
     let x0 = x[..d].to_vec();
-    let jac = Mat::from_fn(d, c, |i, j| (x[(j + 1) * d + i] - x0[i]) / step);
+    let mut jac = Mat::zeros(d, c);
+    for (k, &j) in columns.iter().enumerate() {
+        for i in 0..d {
+            jac[(i, j)] = (x[(k + 1) * d + i] - x0[i]) / step;
+        }
+    }
     Ok((x0, jac))
 }
 
@@ -211,8 +222,8 @@ pub fn refine(
         let computed;
         let j = match jacobian {
             Jacobian::Computed { step } => {
-                let (_, jac) = fd_jacobian(rig, &y, step)?;
-                evaluations += c + 1;
+                let (_, jac) = fd_jacobian(rig, &y, step, free)?;
+                evaluations += 1 + free.map_or(c, |f| f.iter().filter(|&&v| v).count());
                 computed = jac;
                 &computed
             }
@@ -291,7 +302,7 @@ mod tests {
 
     #[test]
     fn finite_differences_match_the_analytic_jacobian() {
-        let (x0, j) = fd_jacobian(&mut Linear, &[0.3, -0.2, 1.0], 1e-6).unwrap();
+        let (x0, j) = fd_jacobian(&mut Linear, &[0.3, -0.2, 1.0], 1e-6, None).unwrap();
         assert!((x0[0] - (0.3 - 0.4 - 1.0 + 1.0)).abs() < 1e-12);
         let a = [[1.0, 2.0, -1.0], [0.5, 0.0, -1.0]];
         for (i, row) in a.iter().enumerate() {
@@ -301,9 +312,13 @@ mod tests {
         }
         // The arm: ∂hand_x/∂θ₂ = −0.8 sin(θ₁ + θ₂).
         let t = [0.4, 0.9];
-        let (_, j) = fd_jacobian(&mut Arm, &t, 1e-7).unwrap();
+        let (_, j) = fd_jacobian(&mut Arm, &t, 1e-7, None).unwrap();
         assert!((j[(2, 1)] + 0.8 * (1.3f64).sin()).abs() < 1e-5);
         assert!((j[(0, 1)]).abs() < 1e-9, "the elbow does not move with θ₂");
+        // A held control's column is not evaluated: zero.
+        let (_, held) = fd_jacobian(&mut Linear, &[0.3, -0.2, 1.0], 1e-6, Some(&[true, false, true])).unwrap();
+        assert_eq!((held[(0, 1)], held[(1, 1)]), (0.0, 0.0));
+        assert!((held[(0, 2)] + 1.0).abs() < 1e-6);
     }
 
     /// From a perturbed pose the computed-Jacobian refinement reaches a reachable target.
@@ -327,7 +342,7 @@ mod tests {
     fn a_given_jacobian_and_held_controls() {
         let truth = [0.7, -1.1];
         let target = arm(&truth);
-        let (_, j) = fd_jacobian(&mut Arm, &[0.6, -1.0], 1e-7).unwrap();
+        let (_, j) = fd_jacobian(&mut Arm, &[0.6, -1.0], 1e-7, None).unwrap();
         let s = RefineSettings { lambda: 1e-2, max_iters: 50, tolerance: 1e-8 };
         let r = refine(&mut Arm, &target, &[0.6, -1.0], Jacobian::Given(&j), None, &s).unwrap();
         assert!(r.residual < 1e-4 && r.residual < r.initial_residual, "{r:?}");

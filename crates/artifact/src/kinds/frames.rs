@@ -86,7 +86,8 @@ impl Frames {
         lo.iter().zip(&hi).map(|(l, h)| if h >= l { h - l } else { 0.0 }).collect()
     }
 
-    fn columns(&self, mut cols: Columns) -> Columns {
+    /// `cols` followed by this table's clip, frame, time and control columns.
+    pub(crate) fn columns(&self, mut cols: Columns) -> Columns {
         cols = cols.str(CLIP, &self.clip).i64(FRAME, self.frame.clone()).f64(TIME, self.time.clone());
         for (c, name) in self.controls.iter().enumerate() {
             cols = cols.f64(name, self.column(c));
@@ -99,7 +100,7 @@ impl Frames {
         crate::table::write(path, FRAMES, self.columns(Columns::new()), provenance, &self.fps_meta())
     }
 
-    fn fps_meta(&self) -> Vec<(String, String)> {
+    pub(crate) fn fps_meta(&self) -> Vec<(String, String)> {
         vec![(KEY_FPS.into(), self.fps.to_string())]
     }
 
@@ -110,7 +111,7 @@ impl Frames {
         Self::from_table(&table, &[])
     }
 
-    fn from_table(table: &Table, skip: &[&str]) -> Result<Self> {
+    pub(crate) fn from_table(table: &Table, skip: &[&str]) -> Result<Self> {
         let fps: f64 =
             table.meta(KEY_FPS)?.parse().map_err(|_| table.invalid(format!("metadata `{KEY_FPS}` is not a number")))?;
         let controls: Vec<String> = table
