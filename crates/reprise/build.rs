@@ -4,7 +4,7 @@
 use std::path::Path;
 
 /// (binary, the stage crate under `stages/` that implements it).
-const STAGES: [(&str, &str); 12] = [
+const STAGES: [(&str, &str); 15] = [
     ("reprise-ingest", "ingest"),
     ("reprise-label", "label"),
     ("reprise-scale", "scale"),
@@ -17,6 +17,9 @@ const STAGES: [(&str, &str); 12] = [
     ("reprise-transitions", "transitions"),
     ("reprise-motion-match", "motion-match"),
     ("reprise-evaluate", "evaluate"),
+    ("reprise-positions", "positions"),
+    ("reprise-invrig-fit", "invrig-fit"),
+    ("reprise-invrig-apply", "invrig-apply"),
 ];
 
 fn main() {

@@ -150,7 +150,7 @@ pub fn mean_row_distance(a: &[f64], b: &[f64], cols: usize) -> f64 {
 }
 
 /// Rows `rows` of the row-major table `v` (`cols` values a row), in that order.
-pub(crate) fn gather(v: &[f64], cols: usize, rows: &[usize]) -> Vec<f64> {
+pub fn gather(v: &[f64], cols: usize, rows: &[usize]) -> Vec<f64> {
     rows.iter().flat_map(|&r| v[r * cols..(r + 1) * cols].iter().copied()).collect()
 }
 

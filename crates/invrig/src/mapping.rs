@@ -6,8 +6,9 @@
 use faer::Mat;
 
 use crate::error::{check_table, InvrigError, Result};
-use crate::gpr::Gpr;
+use crate::gpr::{gather, Gpr};
 use crate::refine::{fd_jacobian, refine, Jacobian, RefineSettings, Rig, Stop};
+use crate::subsample::{subsample, SubsampleSettings};
 
 /// How a pose's controls are found from its positions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -20,17 +21,22 @@ pub enum Method {
     GprLearnedJacobian,
     /// The regression, refined on finite-difference Jacobians through the rig (Eq. 13).
     GprComputedJacobian,
+    /// The regression, refined on one finite-difference Jacobian kept current by Broyden's
+    /// updates (not in the paper: for rigs of many controls, where each Jacobian costs
+    /// $c + 1$ evaluations).
+    GprBroydenJacobian,
     /// The rest pose, refined on finite-difference Jacobians (no learned start).
     RestComputedJacobian,
 }
 
 impl Method {
     /// Every method, in the order of the paper's table.
-    pub const ALL: [Method; 5] = [
+    pub const ALL: [Method; 6] = [
         Method::Nearest,
         Method::Gpr,
         Method::GprLearnedJacobian,
         Method::GprComputedJacobian,
+        Method::GprBroydenJacobian,
         Method::RestComputedJacobian,
     ];
 
@@ -41,6 +47,7 @@ impl Method {
             Method::Gpr => "gpr",
             Method::GprLearnedJacobian => "gpr-learned-jacobian",
             Method::GprComputedJacobian => "gpr-computed-jacobian",
+            Method::GprBroydenJacobian => "gpr-broyden-jacobian",
             Method::RestComputedJacobian => "rest-computed-jacobian",
         }
     }
@@ -121,29 +128,47 @@ impl InverseMap {
         self.free.iter().filter(|&&f| f).count()
     }
 
-    /// Values the learned Jacobian stores: a $d \times$ free Jacobian per training pose,
-    /// twice (the Jacobians and the regression's weights).
-    pub fn learned_jacobian_values(&self) -> usize {
-        2 * self.len() * self.d * self.free_count()
+    /// Values the learned Jacobian stores per training pose it is learned from: the pose's
+    /// $d \times$ free Jacobian and the regression's weights for it.
+    pub fn learned_jacobian_values_per_pose(&self) -> usize {
+        2 * self.d * self.free_count()
     }
 
     /// Fits the second regression, positions → the rig's Jacobian on the free controls,
-    /// from finite-difference Jacobians at every training pose (§4.4).
+    /// from finite-difference Jacobians at training poses (§4.4): all of them if their
+    /// Jacobians fit in `max_values` values, else as many as fit, spread over the training
+    /// positions by farthest points from the first pose. Returns the poses used.
     ///
     /// # Errors
-    /// The rig's errors; as [`Gpr::fit`].
-    pub fn learn_jacobian(&mut self, rig: &mut dyn Rig, step: f64) -> Result<()> {
+    /// [`InvrigError::Param`] when not even one pose fits; the rig's errors; as [`Gpr::fit`].
+    pub fn learn_jacobian(&mut self, rig: &mut dyn Rig, step: f64, max_values: usize) -> Result<usize> {
+        let per_pose = self.learned_jacobian_values_per_pose().max(1);
+        let k = (max_values / per_pose).min(self.len());
+        if k == 0 {
+            return Err(InvrigError::Param {
+                name: "learned Jacobian values",
+                value: max_values as f64,
+                why: "not enough for the Jacobian of one pose",
+            });
+        }
+        let poses: Vec<usize> = if k == self.len() {
+            (0..k).collect()
+        } else {
+            let s = SubsampleSettings { farthest: k - 1, total: k, batch: 1, theta0: 1.0, theta1: 1.0 };
+            subsample(&self.x, self.d, &self.y, self.c, 0, &s)?
+        };
         let free_cols: Vec<usize> = (0..self.c).filter(|&j| self.free[j]).collect();
         let width = self.d * free_cols.len();
-        let mut flat = Vec::with_capacity(self.len() * width);
-        for pose in self.y.chunks_exact(self.c) {
-            let (_, j) = fd_jacobian(rig, pose, step, Some(&self.free))?;
+        let mut flat = Vec::with_capacity(k * width);
+        for &p in &poses {
+            let (_, j) = fd_jacobian(rig, &self.y[p * self.c..(p + 1) * self.c], step, Some(&self.free))?;
             for i in 0..self.d {
-                flat.extend(free_cols.iter().map(|&k| j[(i, k)]));
+                flat.extend(free_cols.iter().map(|&col| j[(i, col)]));
             }
         }
-        self.learned = Some(Gpr::fit(&self.x, self.d, &flat, width, self.gpr.theta0(), self.gpr.theta1())?);
-        Ok(())
+        let x = gather(&self.x, self.d, &poses);
+        self.learned = Some(Gpr::fit(&x, self.d, &flat, width, self.gpr.theta0(), self.gpr.theta1())?);
+        Ok(k)
     }
 
     /// The controls of the training pose nearest to `target` in position space.
@@ -207,6 +232,7 @@ impl InverseMap {
                 refined(&self.gpr.predict(target)?, Jacobian::Given(&j), rig)
             }
             Method::GprComputedJacobian => refined(&self.gpr.predict(target)?, Jacobian::Computed { step }, rig),
+            Method::GprBroydenJacobian => refined(&self.gpr.predict(target)?, Jacobian::Broyden { step }, rig),
             Method::RestComputedJacobian => refined(&self.rest, Jacobian::Computed { step }, rig),
         }
     }
@@ -247,7 +273,7 @@ mod tests {
         }
         let x: Vec<f64> = y.chunks_exact(3).flat_map(arm).collect();
         let mut m = InverseMap::new(x, 4, y, 3, 0.5, 1e-8, vec![true, true, false], vec![0.0; 3]).unwrap();
-        m.learn_jacobian(&mut Arm, 1e-7).unwrap();
+        assert_eq!(m.learn_jacobian(&mut Arm, 1e-7, usize::MAX).unwrap(), 64);
         m
     }
 
@@ -267,15 +293,22 @@ mod tests {
             assert_eq!(r.y[2], 0.0, "{method:?} moved a held control");
             joint_error(&r.y, &target)
         };
-        let (nn, gpr, learned, computed) = (
+        let (nn, gpr, learned, computed, broyden) = (
             err(Method::Nearest),
             err(Method::Gpr),
             err(Method::GprLearnedJacobian),
             err(Method::GprComputedJacobian),
+            err(Method::GprBroydenJacobian),
         );
         assert!(gpr < 0.1 * nn, "regression {gpr} vs nearest {nn}");
         assert!(learned < gpr, "learned {learned} vs regression {gpr}");
         assert!(computed < 1e-12, "computed {computed}");
+        assert!(broyden < 1e-12, "Broyden {broyden}");
+        let evals = |method| m.solve(method, &target, &mut Arm, 1e-7, &s).unwrap().evaluations;
+        assert!(
+            evals(Method::GprBroydenJacobian) < evals(Method::GprComputedJacobian),
+            "Broyden's updates save evaluations"
+        );
         // The learned Jacobian is close to the true one between samples.
         let (_, truth_j) = fd_jacobian(&mut Arm, &truth, 1e-7, Some(&[true, true, false])).unwrap();
         let learned_j = m.learned_jacobian(&target).unwrap();
@@ -307,6 +340,11 @@ mod tests {
         let m = InverseMap::new(x, 4, y, 3, 0.5, 1e-8, vec![true; 3], vec![0.0; 3]).unwrap();
         let err = m.solve(Method::GprLearnedJacobian, &arm(&[0.2, 0.2, 0.0]), &mut Arm, 1e-7, &RefineSettings::default());
         assert!(matches!(err, Err(InvrigError::Param { .. })));
-        assert_eq!(m.learned_jacobian_values(), 2 * 2 * 4 * 3);
+        assert_eq!(m.learned_jacobian_values_per_pose(), 2 * 4 * 3);
+        // A memory bound takes as many poses as fit, farthest first; none fitting is an error.
+        let mut m = trained();
+        assert_eq!(m.learn_jacobian(&mut Arm, 1e-7, 10 * 2 * 4 * 2 + 5).unwrap(), 10);
+        assert!(m.learned_jacobian(&arm(&[0.7, 0.9, 0.0])).is_ok());
+        assert!(m.learn_jacobian(&mut Arm, 1e-7, 15).is_err());
     }
 }

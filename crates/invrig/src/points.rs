@@ -1,5 +1,7 @@
 //! Which points of a mesh the mapping reads, and their positions.
 
+use crate::error::{InvrigError, Result};
+
 /// `count` vertices of the mesh `rest` (`x, y, z` per vertex) spread over it by farthest-point
 /// sampling from vertex 0 (each next vertex is the one farthest from all taken, the lower
 /// index on ties), returned in increasing order; every vertex when `count` is 0 or at least
@@ -33,6 +35,25 @@ pub fn select(meshes: &[f64], vertices: usize, points: &[usize]) -> Vec<f64> {
         .collect()
 }
 
+/// The vertex indices `points` (as a table stores them), each checked against the rig's
+/// `vertices`.
+///
+/// # Errors
+/// [`InvrigError::Param`] naming the first point that is no vertex of the rig.
+pub fn check(points: &[i64], vertices: usize) -> Result<Vec<usize>> {
+    points
+        .iter()
+        .map(|&p| match usize::try_from(p) {
+            Ok(v) if v < vertices => Ok(v),
+            _ => Err(InvrigError::Param {
+                name: "point",
+                value: p as f64,
+                why: "is no vertex of the rig (points are vertex indices of the rig's evaluated mesh)",
+            }),
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -46,6 +67,8 @@ mod tests {
         assert_eq!(spread(&rest, 3), vec![0, 3, 4]);
         assert_eq!(spread(&rest, 0), vec![0, 1, 2, 3, 4]);
         assert_eq!(spread(&rest, 9), vec![0, 1, 2, 3, 4]);
+        assert_eq!(check(&[4, 0], 5).unwrap(), vec![4, 0]);
+        assert!(check(&[5], 5).is_err() && check(&[-1], 5).is_err());
     }
 
     #[test]

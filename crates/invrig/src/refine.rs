@@ -89,6 +89,14 @@ pub enum Jacobian<'a> {
         /// $h$.
         step: f64,
     },
+    /// Forward differences through the rig at the start only, then Broyden's rank-one
+    /// update after every accepted step, $J \leftarrow J + (\Delta x - J\Delta y)\,\Delta y^\top /
+    /// \Delta y^\top\Delta y$ (two evaluations a step instead of $c + 1$); recomputed by
+    /// differences once when a step makes no progress.
+    Broyden {
+        /// $h$.
+        step: f64,
+    },
     /// A given $d \times c$ Jacobian (a learned one), the same at every iterate.
     Given(&'a Mat<f64>),
 }
@@ -100,7 +108,8 @@ pub struct RefineSettings {
     pub lambda: f64,
     /// At most this many steps.
     pub max_iters: usize,
-    /// Stop once $\lVert x_* - x\rVert$ is at most this (position units).
+    /// Stop once the root-mean-square point distance $\lVert x_* - x\rVert / \sqrt{d/3}$ is at
+    /// most this (position units; positions are `x, y, z` per point).
     pub tolerance: f64,
 }
 
@@ -143,6 +152,21 @@ pub struct Refined {
 
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|a| a * a).sum::<f64>().sqrt()
+}
+
+/// Broyden's update of `j` for the step `dy` that moved the positions from `x0` to `x1`.
+fn broyden_update(j: &mut Mat<f64>, dy: &[f64], x0: &[f64], x1: &[f64]) {
+    let dd: f64 = dy.iter().map(|v| v * v).sum();
+    if dd == 0.0 {
+        return;
+    }
+    for i in 0..j.nrows() {
+        let predicted: f64 = (0..j.ncols()).map(|k| j[(i, k)] * dy[k]).sum();
+        let miss = (x1[i] - x0[i]) - predicted;
+        for (k, &v) in dy.iter().enumerate() {
+            j[(i, k)] += miss * v / dd;
+        }
+    }
 }
 
 /// The damped step $\Delta y$ for the Jacobian `j` ($d \times c$) and residual `r` ($d$),
@@ -214,42 +238,58 @@ pub fn refine(
     let initial_residual = residual;
     let mut iterations = 0;
     let mut stop = Stop::MaxIters;
+    let tolerance = s.tolerance * (d as f64 / 3.0).max(1.0).sqrt();
+    let free_count = free.map_or(c, |f| f.iter().filter(|&&v| v).count());
+    // The Jacobian carried between iterations (Broyden), and whether it is fresh from
+    // differences.
+    let mut carried: Option<(Mat<f64>, bool)> = None;
     while iterations < s.max_iters {
-        if residual <= s.tolerance {
+        if residual <= tolerance {
             stop = Stop::Converged;
             break;
         }
-        let computed;
         let j = match jacobian {
-            Jacobian::Computed { step } => {
+            Jacobian::Computed { step } | Jacobian::Broyden { step } if carried.is_none() => {
                 let (_, jac) = fd_jacobian(rig, &y, step, free)?;
-                evaluations += 1 + free.map_or(c, |f| f.iter().filter(|&&v| v).count());
-                computed = jac;
-                &computed
+                evaluations += free_count + 1;
+                carried.insert((jac, true)).0.clone()
             }
-            Jacobian::Given(j) => j,
+            Jacobian::Computed { .. } | Jacobian::Broyden { .. } => carried.as_ref().map(|c| c.0.clone()).expect("set above"),
+            Jacobian::Given(j) => j.clone(),
         };
-        let mut dy = damped_step(j, &r, s.lambda, free)?;
+        let mut dy = damped_step(&j, &r, s.lambda, free)?;
         iterations += 1;
-        let mut accepted = false;
+        let mut accepted = None;
         for _ in 0..=HALVINGS {
             let trial: Vec<f64> = y.iter().zip(&dy).map(|(a, b)| a + b).collect();
             let tx = evaluate(rig, &trial, 1)?;
             evaluations += 1;
             let (tr, tn) = residual_of(&tx);
             if tn < residual {
-                (y, x, r, residual) = (trial, tx, tr, tn);
-                accepted = true;
+                accepted = Some((trial, tx, tr, tn));
                 break;
             }
             dy.iter_mut().for_each(|v| *v *= 0.5);
         }
-        if !accepted {
-            stop = Stop::NoProgress;
-            break;
+        match (accepted, jacobian) {
+            (Some((trial, tx, tr, tn)), _) => {
+                if let (Jacobian::Broyden { .. }, Some((jm, fresh))) = (jacobian, carried.as_mut()) {
+                    broyden_update(jm, &dy, &x, &tx);
+                    *fresh = false;
+                } else if matches!(jacobian, Jacobian::Computed { .. }) {
+                    carried = None;
+                }
+                (y, x, r, residual) = (trial, tx, tr, tn);
+            }
+            // A Broyden Jacobian that has drifted: recompute it by differences once.
+            (None, Jacobian::Broyden { .. }) if carried.as_ref().is_some_and(|c| !c.1) => carried = None,
+            (None, _) => {
+                stop = Stop::NoProgress;
+                break;
+            }
         }
     }
-    if stop == Stop::MaxIters && residual <= s.tolerance {
+    if stop == Stop::MaxIters && residual <= tolerance {
         stop = Stop::Converged;
     }
     Ok(Refined { y, x, residual, initial_residual, iterations, evaluations, stop })

@@ -46,4 +46,7 @@ stages![
     reprise_transitions,
     reprise_motion_match,
     reprise_evaluate,
+    reprise_positions,
+    reprise_invrig_fit,
+    reprise_invrig_apply,
 ];

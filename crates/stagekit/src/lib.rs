@@ -5,6 +5,7 @@
 #![warn(missing_docs)]
 
 pub mod error;
+pub mod clips;
 pub mod exit;
 pub mod lifetime;
 pub mod panic;

@@ -8,6 +8,20 @@
 //! [`Mapping::points`], so the table and the rig together are the whole mapping.
 //!
 //! Metadata: `reprise.fps` and `reprise.invrig`, the JSON of [`Mapping`].
+//!
+//! `invrig_errors`: what applying a mapping did, one row per (method, clip, frame).
+//!
+//! | column | type | meaning |
+//! |---|---|---|
+//! | `method` | Utf8 | how the controls were found (`reprise_invrig::mapping::Method`) |
+//! | `clip`, `frame` | Utf8, Int64 | the frame of the positions table |
+//! | `joint_error` | Float64 | mean over points of $\lVert f(y)_k - x_{*k}\rVert^2$, length unit² |
+//! | `joint_distance` | Float64 | mean over points of $\lVert f(y)_k - x_{*k}\rVert$, length unit |
+//! | `truth_error` | Float64, null | mean over controls of $(y_j - y^{true}_j)^2$ where the curves are known |
+//! | `iterations` | Int64 | refinement steps (0 without refinement) |
+//! | `evaluations` | Int64 | rig evaluations the method made |
+//! | `ms` | Float64 | wall time of the method for this frame, milliseconds |
+//! | `stop` | Utf8 | why the refinement stopped (`converged`, `max-iters`, `no-progress`), empty without one |
 
 use std::path::Path;
 
@@ -77,6 +91,73 @@ impl Invrig {
     }
 }
 
+/// Kind of the per-frame errors of applying a mapping.
+pub const INVRIG_ERRORS: Kind = Kind { name: "invrig_errors", version: 1 };
+
+/// One frame found by one method.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameError {
+    /// The method's name.
+    pub method: String,
+    /// Clip.
+    pub clip: String,
+    /// Frame.
+    pub frame: i64,
+    /// Mean squared point distance, length unit².
+    pub joint_error: f64,
+    /// Mean point distance, length unit.
+    pub joint_distance: f64,
+    /// Mean squared control error, where the curves are known.
+    pub truth_error: Option<f64>,
+    /// Refinement steps.
+    pub iterations: i64,
+    /// Rig evaluations.
+    pub evaluations: i64,
+    /// Milliseconds.
+    pub ms: f64,
+    /// Why the refinement stopped, or empty.
+    pub stop: String,
+}
+
+/// Writes the per-frame errors atomically.
+pub fn write_errors(path: &Path, rows: &[FrameError], provenance: &Provenance) -> Result<()> {
+    let s = |f: fn(&FrameError) -> &str| rows.iter().map(f).collect::<Vec<_>>();
+    let cols = Columns::new()
+        .str("method", &s(|r| &r.method))
+        .str("clip", &s(|r| &r.clip))
+        .i64("frame", rows.iter().map(|r| r.frame).collect())
+        .f64("joint_error", rows.iter().map(|r| r.joint_error).collect())
+        .f64("joint_distance", rows.iter().map(|r| r.joint_distance).collect())
+        .f64_opt("truth_error", rows.iter().map(|r| r.truth_error).collect())
+        .i64("iterations", rows.iter().map(|r| r.iterations).collect())
+        .i64("evaluations", rows.iter().map(|r| r.evaluations).collect())
+        .f64("ms", rows.iter().map(|r| r.ms).collect())
+        .str("stop", &s(|r| &r.stop));
+    crate::table::write(path, INVRIG_ERRORS, cols, provenance, &[])
+}
+
+/// Reads the per-frame errors.
+pub fn read_errors(path: &Path) -> Result<Vec<FrameError>> {
+    let t = Table::read(path, INVRIG_ERRORS)?;
+    let (method, clip, frame) = (t.str("method")?, t.str("clip")?, t.i64("frame")?);
+    let (je, jd, te) = (t.f64("joint_error")?, t.f64("joint_distance")?, t.f64_opt("truth_error")?);
+    let (it, ev, ms, stop) = (t.i64("iterations")?, t.i64("evaluations")?, t.f64("ms")?, t.str("stop")?);
+    Ok((0..t.rows())
+        .map(|i| FrameError {
+            method: method[i].into(),
+            clip: clip[i].into(),
+            frame: frame[i],
+            joint_error: je[i],
+            joint_distance: jd[i],
+            truth_error: te[i],
+            iterations: it[i],
+            evaluations: ev[i],
+            ms: ms[i],
+            stop: stop[i].into(),
+        })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -106,5 +187,20 @@ mod tests {
         };
         m.write(&path, &Provenance::new("test", "0", serde_json::json!({}))).unwrap();
         assert_eq!(Invrig::read(&path).unwrap(), m);
+        let rows = vec![FrameError {
+            method: "gpr".into(),
+            clip: "t".into(),
+            frame: 2,
+            joint_error: 0.5,
+            joint_distance: 0.7,
+            truth_error: None,
+            iterations: 0,
+            evaluations: 1,
+            ms: 0.25,
+            stop: String::new(),
+        }];
+        let path = dir.path().join("e.parquet");
+        write_errors(&path, &rows, &Provenance::new("test", "0", serde_json::json!({}))).unwrap();
+        assert_eq!(read_errors(&path).unwrap(), rows);
     }
 }
