@@ -73,8 +73,9 @@ pub struct Args {
     /// Methods measured beside it for the report (comma-separated; `all`, or `none`).
     #[arg(long, value_delimiter = ',', default_value = "all")]
     pub compare: Vec<String>,
-    /// The damping λ of Eq. 13, in the rig's length unit.
-    #[arg(long, default_value_t = 1e-2)]
+    /// The damping λ of Eq. 13, in length unit per control unit (tuned on dragon-face: cm
+    /// per control unit there).
+    #[arg(long, default_value_t = 0.1)]
     pub lambda: f64,
     /// Refinement steps at most per frame.
     #[arg(long, default_value_t = 10)]

@@ -18,6 +18,9 @@ pub struct Row {
     pub joint_error: f64,
     /// Mean point distance, length unit.
     pub joint_distance: f64,
+    /// The largest frame's mean point distance, length unit: a pose out of the rig's reach
+    /// shows here.
+    pub worst_distance: f64,
     /// Mean ground-truth error over the frames whose curves are known, with their count.
     pub truth_error: Option<(f64, usize)>,
     /// Seconds of all frames' methods plus set-up.
@@ -48,6 +51,7 @@ pub fn table(runs: &[MethodRun], errors: &[FrameError]) -> Vec<Row> {
                 frames: rows.len(),
                 joint_error: mean(|e| e.joint_error),
                 joint_distance: mean(|e| e.joint_distance),
+                worst_distance: rows.iter().map(|e| e.joint_distance).fold(0.0, f64::max),
                 truth_error: (!known.is_empty()).then(|| (known.iter().sum::<f64>() / known.len() as f64, known.len())),
                 seconds,
                 fps: rows.len() as f64 / seconds.max(1e-12),
@@ -127,18 +131,20 @@ pub fn markdown(ctx: &Context<'_>) -> String {
     md.push_str(
         "Joint error: mean over points of the squared distance between the target and the rig at the controls \
          found (length unit²); distance: its unsquared mean. Ground-truth error: mean over controls of the squared \
-         control error, where the curves are known. Frames per second: one stream, the frames over the sum of the \
+         control error, where the curves are known. Worst frame: the largest mean distance of one frame (a pose \
+         the rig cannot reach shows here, and in every frame's row of `invrig_errors`). Frames per second: one stream, the frames over the sum of the \
          per-frame times (set-up included). Every method is measured by the same code on the same frames.\n\n",
     );
-    md.push_str("| method | joint error | mean distance | ground-truth error | total s | frames/s | iterations | rig evaluations/frame | no progress |\n");
-    md.push_str("|---|---|---|---|---|---|---|---|---|\n");
+    md.push_str("| method | joint error | mean distance | worst frame's distance | ground-truth error | total s | frames/s | iterations | rig evaluations/frame | no progress |\n");
+    md.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
     for r in &rows {
         let truth = r.truth_error.map_or("—".to_string(), |(e, _)| sig(e));
         md.push_str(&format!(
-            "| {} | {} | {} | {truth} | {:.2} | {:.1} | {:.1} | {:.0} | {} |\n",
+            "| {} | {} | {} | {} | {truth} | {:.2} | {:.1} | {:.1} | {:.0} | {} |\n",
             label(r.method),
             sig(r.joint_error),
             sig(r.joint_distance),
+            sig(r.worst_distance),
             r.seconds,
             r.fps,
             r.iterations,
@@ -148,7 +154,7 @@ pub fn markdown(ctx: &Context<'_>) -> String {
     }
     for run in s.runs.iter().filter(|r| r.skipped.is_some()) {
         md.push_str(&format!(
-            "| {} | not run: {} | | | | | | | |\n",
+            "| {} | not run: {} | | | | | | | | |\n",
             label(run.method),
             run.skipped.as_deref().unwrap_or_default()
         ));
@@ -244,6 +250,7 @@ mod tests {
         let t = table(&runs, &errors);
         assert_eq!(t.len(), 2);
         assert_eq!((t[0].frames, t[0].joint_error, t[0].truth_error), (2, 3.0, Some((1.0, 1))));
+        assert_eq!(t[0].worst_distance, 2.0);
         assert!((t[0].fps - 2.0 / 0.004).abs() < 1e-9);
         // Set-up counts in the learned Jacobian's time.
         assert!((t[1].seconds - 1.5).abs() < 1e-12 && t[1].no_progress == 1);
