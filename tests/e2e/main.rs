@@ -10,6 +10,7 @@ mod default_pipeline;
 mod external_rig;
 mod gplvm_stage;
 mod init;
+mod invrig;
 mod lifetime;
 mod live;
 mod partitions;
