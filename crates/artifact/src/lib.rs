@@ -44,7 +44,8 @@ mod kinds {
     pub mod transitions;
 }
 pub use kinds::{
-    bridges, clips, controls, curves, frames, gplvm, invrig, motion_graph, pca, positions, scales, segments, transitions,
+    bridges, clips, controls, curves, frames, gplvm, invrig, motion_graph, pca, positions, scales, segments,
+    transitions,
 };
 
 pub use error::{ArtifactError, Result};

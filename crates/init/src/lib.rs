@@ -35,7 +35,7 @@ use reprise_runner::paths::{absolute, relative, ArtifactPath};
 use reprise_runner::pipeline::Pipeline;
 
 pub use labels::{plan_labels, ClipInfo, Fate, LabelsPlan};
-pub use template::{pipeline_text, script_text, Source, CHOICES, DEMO_SCRIPT};
+pub use template::{pipeline_text, script_text, Source, CHOICES, DEMO_SCRIPT, OTHER_JOBS};
 
 /// The fewest frames a label needs: two 12-frame blend windows (the window of the
 /// Motion Graphs baseline, the transition benchmark and the evaluation). A shorter clip

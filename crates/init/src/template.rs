@@ -53,8 +53,12 @@ const GAME_EVENTS: [(&str, &str); 6] = [
     ("draw", "a draw"),
 ];
 
+/// Stages of another job, left out of the pipeline `init` writes: inverse rig mapping makes
+/// curves from positions (docs/invrig.md), and a new character's source already has curves.
+pub const OTHER_JOBS: [&str; 3] = ["positions", "invrig-fit", "invrig-apply"];
+
 /// The pipeline file: a stage table for every stage the runner knows (`known`, in their
-/// order; `export-gltf` only for a glTF character), each with only what differs from its
+/// order; `export-gltf` only for a glTF character; none of [`OTHER_JOBS`]), each with only what differs from its
 /// defaults: the source, the labels, the demo script, `fps` if given and [`CHOICES`]; every artifact is
 /// wired by its declaration. A user's file a stage needs that `init` cannot name is an
 /// error.
@@ -76,7 +80,7 @@ pub fn pipeline_text(known: &[Wiring], name: &str, source: &Source, fps: Option<
     let _ = writeln!(t, "# default (`reprise-<stage> --help`).\n");
     let _ = writeln!(t, "[pipeline]\nname = {}", quoted(name));
     for w in known {
-        if w.stage == "export-gltf" && !matches!(source, Source::Gltf(_)) {
+        if (w.stage == "export-gltf" && !matches!(source, Source::Gltf(_))) || OTHER_JOBS.contains(&w.stage) {
             continue;
         }
         let _ = write!(t, "\n[stage.{}]", w.stage);

@@ -338,7 +338,8 @@ mod tests {
         let y = vec![0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
         let x: Vec<f64> = y.chunks_exact(3).flat_map(arm).collect();
         let m = InverseMap::new(x, 4, y, 3, 0.5, 1e-8, vec![true; 3], vec![0.0; 3]).unwrap();
-        let err = m.solve(Method::GprLearnedJacobian, &arm(&[0.2, 0.2, 0.0]), &mut Arm, 1e-7, &RefineSettings::default());
+        let err =
+            m.solve(Method::GprLearnedJacobian, &arm(&[0.2, 0.2, 0.0]), &mut Arm, 1e-7, &RefineSettings::default());
         assert!(matches!(err, Err(InvrigError::Param { .. })));
         assert_eq!(m.learned_jacobian_values_per_pose(), 2 * 4 * 3);
         // A memory bound takes as many poses as fit, farthest first; none fitting is an error.

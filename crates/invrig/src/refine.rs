@@ -254,7 +254,9 @@ pub fn refine(
                 evaluations += free_count + 1;
                 carried.insert((jac, true)).0.clone()
             }
-            Jacobian::Computed { .. } | Jacobian::Broyden { .. } => carried.as_ref().map(|c| c.0.clone()).expect("set above"),
+            Jacobian::Computed { .. } | Jacobian::Broyden { .. } => {
+                carried.as_ref().map(|c| c.0.clone()).expect("set above")
+            }
             Jacobian::Given(j) => j.clone(),
         };
         let mut dy = damped_step(&j, &r, s.lambda, free)?;

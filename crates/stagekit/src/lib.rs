@@ -4,8 +4,8 @@
 //! into provenance ([`provenance`]).
 #![warn(missing_docs)]
 
-pub mod error;
 pub mod clips;
+pub mod error;
 pub mod exit;
 pub mod lifetime;
 pub mod panic;

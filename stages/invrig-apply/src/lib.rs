@@ -123,9 +123,11 @@ pub fn methods(args: &Args) -> StageResult<Vec<Method>> {
         }
     }
     let mut seen = Vec::new();
-    out.retain(|m| !seen.contains(m) && {
-        seen.push(*m);
-        true
+    out.retain(|m| {
+        !seen.contains(m) && {
+            seen.push(*m);
+            true
+        }
     });
     out[1..].sort_by_key(|m| Method::ALL.iter().position(|a| a == m));
     Ok(out)
@@ -311,7 +313,8 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     }
     bar.finish_and_clear();
     let ys = written.expect("the written method is first and always runs");
-    let (recovered, carried) = assemble(&positions, &samples.controls, &ys, truth.as_ref().filter(|_| args.carry_clips));
+    let (recovered, carried) =
+        assemble(&positions, &samples.controls, &ys, truth.as_ref().filter(|_| args.carry_clips));
     recovered.write(&args.io.recovered, &provenance)?;
     write_errors(&args.io.errors, &errors, &provenance)?;
     let summary = Summary { runs, errors, frames: positions.frames(), carried, eval_ms };
@@ -408,8 +411,14 @@ pub fn point_errors(a: &[f64], b: &[f64]) -> (f64, f64) {
 /// with the number of clips carried unchanged.
 fn assemble(positions: &Positions, controls: &[String], ys: &[Vec<f64>], carry: Option<&Frames>) -> (Frames, usize) {
     let fps = positions.fps;
-    let mut out =
-        Frames { fps, controls: controls.to_vec(), clip: Vec::new(), frame: Vec::new(), time: Vec::new(), values: Vec::new() };
+    let mut out = Frames {
+        fps,
+        controls: controls.to_vec(),
+        clip: Vec::new(),
+        frame: Vec::new(),
+        time: Vec::new(),
+        values: Vec::new(),
+    };
     let mapped = positions.clip_runs();
     let push_mapped = |out: &mut Frames, (clip, a, b): &(String, usize, usize)| {
         for f in *a..*b {

@@ -201,7 +201,11 @@ pub fn markdown(ctx: &Context<'_>) -> String {
             label(run.method),
             run.jacobian_poses,
             ctx.samples,
-            if run.jacobian_poses < ctx.samples { " (as many as fit in --max-jacobian-mib, spread by farthest points)" } else { "" },
+            if run.jacobian_poses < ctx.samples {
+                " (as many as fit in --max-jacobian-mib, spread by farthest points)"
+            } else {
+                ""
+            },
             run.setup_seconds
         ));
     }
@@ -240,7 +244,12 @@ mod tests {
         let runs = vec![
             MethodRun { method: Method::Gpr, setup_seconds: 0.0, jacobian_poses: 0, skipped: None },
             MethodRun { method: Method::GprLearnedJacobian, setup_seconds: 1.0, jacobian_poses: 3, skipped: None },
-            MethodRun { method: Method::Nearest, setup_seconds: 0.0, jacobian_poses: 0, skipped: Some("too big".into()) },
+            MethodRun {
+                method: Method::Nearest,
+                setup_seconds: 0.0,
+                jacobian_poses: 0,
+                skipped: Some("too big".into()),
+            },
         ];
         let errors = vec![
             row("gpr", 4.0, Some(1.0), 1.0, ""),

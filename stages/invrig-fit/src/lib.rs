@@ -170,7 +170,12 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         d,
         &gather(&y, c, &pick),
         c,
-        &CvSettings { grid: theta0_grid(args.cv_candidates), rounds: args.cv_rounds, theta1: args.theta1, seed: args.seed },
+        &CvSettings {
+            grid: theta0_grid(args.cv_candidates),
+            rounds: args.cv_rounds,
+            theta1: args.theta1,
+            seed: args.seed,
+        },
     )
     .map_err(|e| StageError::Input(format!("{}: cross-validation: {e}", args.io.frames.display())))?;
     let cv_seconds = started.elapsed().as_secs_f64();
@@ -190,7 +195,13 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     let mut order = taken.clone();
     // Rest first, then by row (clip order of the table, frames increasing).
     order.sort_unstable();
-    let source = |i: usize| if i == 0 { (REST_CLIP.to_string(), 0) } else { (frames.clip[rows[i - 1]].clone(), frames.frame[rows[i - 1]]) };
+    let source = |i: usize| {
+        if i == 0 {
+            (REST_CLIP.to_string(), 0)
+        } else {
+            (frames.clip[rows[i - 1]].clone(), frames.frame[rows[i - 1]])
+        }
+    };
     let samples = Frames {
         fps: frames.fps,
         controls: frames.controls.clone(),

@@ -77,7 +77,10 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
             reprise_invrig::points::check(&mapping.points, vertices)
                 .map_err(|e| StageError::Input(format!("{}: {e}", path.display())))?
         }
-        None => reprise_invrig::points::spread(&rig.0.evaluate(&rig.0.rest_pose()).map_err(|e| StageError::Input(e.to_string()))?, args.points),
+        None => reprise_invrig::points::spread(
+            &rig.0.evaluate(&rig.0.rest_pose()).map_err(|e| StageError::Input(e.to_string()))?,
+            args.points,
+        ),
     };
     let rows: Vec<usize> =
         (0..frames.rows()).filter(|&r| matcher.as_ref().is_none_or(|m| m.is_match(&frames.clip[r]))).collect();
@@ -88,7 +91,8 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
             args.clips
         )));
     }
-    let meshes = reprise_stagekit::rig::meshes(&rig, &rows.iter().map(|&r| frames.row(r).to_vec()).collect::<Vec<_>>())?;
+    let meshes =
+        reprise_stagekit::rig::meshes(&rig, &rows.iter().map(|&r| frames.row(r).to_vec()).collect::<Vec<_>>())?;
     let out = Positions {
         fps: frames.fps,
         points: points.iter().map(|&p| p as i64).collect(),
@@ -100,4 +104,3 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     let clips = out.clip_runs().len();
     Ok(Some(Summary { frames: out.frames(), points: points.len(), clips }))
 }
-

@@ -88,8 +88,13 @@ impl Positions {
             }
         }
         let [x, y, z] = xyz;
-        let cols =
-            Columns::new().str("clip", &clip).i64("frame", frame).i64("point", point).f64("x", x).f64("y", y).f64("z", z);
+        let cols = Columns::new()
+            .str("clip", &clip)
+            .i64("frame", frame)
+            .i64("point", point)
+            .f64("x", x)
+            .f64("y", y)
+            .f64("z", z);
         crate::table::write(path, POSITIONS, cols, provenance, &[(KEY_FPS.into(), self.fps.to_string())])
     }
 
@@ -132,10 +137,9 @@ impl Positions {
             return Err(table.invalid(format!("row {row}, column `point`: {} is negative", points[row])));
         }
         if clip.len() % first != 0 {
-            return Err(table.invalid(format!(
-                "{} rows are not whole frames of the first frame's {first} points",
-                clip.len()
-            )));
+            return Err(
+                table.invalid(format!("{} rows are not whole frames of the first frame's {first} points", clip.len()))
+            );
         }
         let frames = clip.len() / first;
         let mut out = Self {
