@@ -160,6 +160,24 @@ fn bad_positions_are_named_and_unreachable_poses_are_reported() {
             ],
         )
     };
+    // Nothing left to learn from.
+    let err = p
+        .stage(
+            "reprise-invrig-fit",
+            &[
+                "--frames",
+                "artifacts/dragon/frames.parquet",
+                "--controls",
+                "artifacts/dragon/controls.parquet",
+                "--invrig",
+                "out/invrig.parquet",
+                "--hold-out",
+                "*_take*",
+            ],
+        )
+        .fails(exit::INPUT);
+    assert!(err.contains("every clip is held out") && err.contains("frames.parquet"), "{err}");
+
     let good = Positions::read(&p.path("artifacts/dragon/positions.parquet"), None).unwrap();
     let prov = Provenance::new("test", "0", serde_json::json!({}));
 

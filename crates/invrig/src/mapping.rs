@@ -63,6 +63,19 @@ impl Method {
     }
 }
 
+/// Training poses: `n` rows of `d` position values (`x`) and of `c` controls (`y`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Training {
+    /// Positions, `n × d` row-major.
+    pub x: Vec<f64>,
+    /// Position values per pose.
+    pub d: usize,
+    /// Controls, `n × c` row-major.
+    pub y: Vec<f64>,
+    /// Controls per pose.
+    pub c: usize,
+}
+
 /// The training set and the regressions fitted on it.
 #[derive(Debug, Clone)]
 pub struct InverseMap {
@@ -90,22 +103,14 @@ pub struct Solved {
 }
 
 impl InverseMap {
-    /// Fits the regression on `x` (`n × d` positions) → `y` (`n × c` controls); `free`
-    /// marks the controls the refinement may move, `rest` is the rig's rest pose.
+    /// Fits the regression on the training poses with $(\theta_0, \theta_1)$ = `theta`;
+    /// `free` marks the controls the refinement may move, `rest` is the rig's rest pose.
     ///
     /// # Errors
     /// As [`Gpr::fit`]; a `free` or `rest` of the wrong length.
-    pub fn new(
-        x: Vec<f64>,
-        d: usize,
-        y: Vec<f64>,
-        c: usize,
-        theta0: f64,
-        theta1: f64,
-        free: Vec<bool>,
-        rest: Vec<f64>,
-    ) -> Result<Self> {
-        let gpr = Gpr::fit(&x, d, &y, c, theta0, theta1)?;
+    pub fn new(training: Training, theta: (f64, f64), free: Vec<bool>, rest: Vec<f64>) -> Result<Self> {
+        let Training { x, d, y, c } = training;
+        let gpr = Gpr::fit(&x, d, &y, c, theta.0, theta.1)?;
         if free.len() != c {
             return Err(InvrigError::Shape { what: "free controls", expected: c, actual: free.len() });
         }
@@ -272,7 +277,8 @@ mod tests {
             }
         }
         let x: Vec<f64> = y.chunks_exact(3).flat_map(arm).collect();
-        let mut m = InverseMap::new(x, 4, y, 3, 0.5, 1e-8, vec![true, true, false], vec![0.0; 3]).unwrap();
+        let mut m =
+            InverseMap::new(Training { x, d: 4, y, c: 3 }, (0.5, 1e-8), vec![true, true, false], vec![0.0; 3]).unwrap();
         assert_eq!(m.learn_jacobian(&mut Arm, 1e-7, usize::MAX).unwrap(), 64);
         m
     }
@@ -337,7 +343,7 @@ mod tests {
         }
         let y = vec![0.0, 0.0, 0.0, 0.5, 0.5, 0.0];
         let x: Vec<f64> = y.chunks_exact(3).flat_map(arm).collect();
-        let m = InverseMap::new(x, 4, y, 3, 0.5, 1e-8, vec![true; 3], vec![0.0; 3]).unwrap();
+        let m = InverseMap::new(Training { x, d: 4, y, c: 3 }, (0.5, 1e-8), vec![true; 3], vec![0.0; 3]).unwrap();
         let err =
             m.solve(Method::GprLearnedJacobian, &arm(&[0.2, 0.2, 0.0]), &mut Arm, 1e-7, &RefineSettings::default());
         assert!(matches!(err, Err(InvrigError::Param { .. })));

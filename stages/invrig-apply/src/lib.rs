@@ -26,7 +26,7 @@ use reprise_artifact::controls::Controls;
 use reprise_artifact::frames::Frames;
 use reprise_artifact::invrig::{write_errors, FrameError, Invrig};
 use reprise_artifact::positions::{point_mismatch, Positions};
-use reprise_invrig::mapping::{InverseMap, Method};
+use reprise_invrig::mapping::{InverseMap, Method, Training};
 use reprise_invrig::refine::{RefineSettings, Stop};
 use reprise_invrig::InvrigError;
 use reprise_rig::{PoseLayout, Rig};
@@ -136,7 +136,7 @@ pub fn methods(args: &Args) -> StageResult<Vec<Method>> {
 impl Args {
     fn validate(&self) -> StageResult<Vec<Method>> {
         let positive = |x: f64| x.is_finite() && x > 0.0;
-        if !positive(self.lambda) || !positive(self.step) || !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
+        if !(positive(self.lambda) && positive(self.step) && self.tolerance.is_finite() && self.tolerance >= 0.0) {
             return Err(StageError::Config("--lambda and --step must be finite and positive, --tolerance >= 0".into()));
         }
         if self.fps.is_some_and(|f| !positive(f)) {
@@ -257,17 +257,9 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         let defaults: BTreeMap<&str, f64> = controls.controls.iter().map(|c| (c.name.as_str(), c.default)).collect();
         samples.controls.iter().map(|n| defaults.get(n.as_str()).copied().unwrap_or(0.0)).collect()
     };
-    let mut map = InverseMap::new(
-        x,
-        positions.width(),
-        samples.values.clone(),
-        c,
-        fitted.mapping.theta0,
-        fitted.mapping.theta1,
-        free,
-        rest,
-    )
-    .map_err(input_err(&args.io.invrig))?;
+    let training = Training { x, d: positions.width(), y: samples.values.clone(), c };
+    let mut map = InverseMap::new(training, (fitted.mapping.theta0, fitted.mapping.theta1), free, rest)
+        .map_err(input_err(&args.io.invrig))?;
 
     let truth_rows = truth.as_ref().map(truth_index);
     let settings = RefineSettings { lambda: args.lambda, max_iters: args.iterations, tolerance: args.tolerance };
@@ -288,7 +280,7 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
                 Err(InvrigError::Param { .. }) if written.is_some() => {
                     run.skipped = Some(format!(
                         "one pose's learned Jacobian takes {} MiB, more than --max-jacobian-mib {}",
-                        map.learned_jacobian_values_per_pose() * 8 >> 20,
+                        (map.learned_jacobian_values_per_pose() * 8) >> 20,
                         args.max_jacobian_mib
                     ));
                     runs.push(run);
@@ -421,11 +413,11 @@ fn assemble(positions: &Positions, controls: &[String], ys: &[Vec<f64>], carry: 
     };
     let mapped = positions.clip_runs();
     let push_mapped = |out: &mut Frames, (clip, a, b): &(String, usize, usize)| {
-        for f in *a..*b {
+        for (&frame, y) in positions.frame[*a..*b].iter().zip(&ys[*a..*b]) {
             out.clip.push(clip.clone());
-            out.frame.push(positions.frame[f]);
-            out.time.push(positions.frame[f] as f64 / fps);
-            out.values.extend_from_slice(&ys[f]);
+            out.frame.push(frame);
+            out.time.push(frame as f64 / fps);
+            out.values.extend_from_slice(y);
         }
     };
     let mut done = vec![false; mapped.len()];
