@@ -8,6 +8,7 @@ mod bvh_pipeline;
 mod cdp;
 mod default_pipeline;
 mod external_rig;
+mod face_capture;
 mod gplvm_stage;
 mod init;
 mod invrig;

@@ -110,8 +110,12 @@ impl Blendshapes {
                 .take(MAX_ENTRY_BYTES + 1)
                 .read_to_string(&mut text)
                 .map_err(|e| zip_err(format!("{name}: {e}")))?;
-            let mesh = parse_obj(&text)
-                .map_err(|(line, message)| BlendshapeError::Obj { path: shown.clone(), entry: name.clone(), line, message })?;
+            let mesh = parse_obj(&text).map_err(|(line, message)| BlendshapeError::Obj {
+                path: shown.clone(),
+                entry: name.clone(),
+                line,
+                message,
+            })?;
             if stem.eq_ignore_ascii_case("neutral") {
                 if neutral.is_some() {
                     return Err(zip_err(format!("two neutral meshes (the second is {name})")));
@@ -176,9 +180,11 @@ fn parse_obj(text: &str) -> Result<Mesh, (Option<usize>, String)> {
         let mut words = line.split_whitespace();
         match words.next() {
             Some("v") => {
-                let xyz: Vec<f64> = words.take(3).map(str::parse::<f64>).collect::<Result<_, _>>().map_err(|e| {
-                    (Some(k + 1), format!("a vertex needs three numbers: {e}"))
-                })?;
+                let xyz: Vec<f64> = words
+                    .take(3)
+                    .map(str::parse::<f64>)
+                    .collect::<Result<_, _>>()
+                    .map_err(|e| (Some(k + 1), format!("a vertex needs three numbers: {e}")))?;
                 if xyz.len() != 3 || xyz.iter().any(|v| !v.is_finite()) {
                     return Err((Some(k + 1), "a vertex needs three finite numbers".into()));
                 }

@@ -2,13 +2,14 @@
 //! out. Scaling, every mesh-space metric and every picture go through [`Rig`].
 //!
 //! Implementations: the built-in dragon-face rig ([`dragon`]), glTF characters and BVH
-//! skeletons ([`skeleton`]), an external process
+//! skeletons ([`skeleton`]), blendshape faces ([`blendshape`]), an external process
 //! speaking Arrow IPC ([`external`]), and a linear example rig ([`linear`]) that is both
 //! the protocol's reference evaluator and a rig with analytic answers for tests.
 //! [`open`] rebuilds the rig an artifact names ([`RigRef`]), so every stage evaluates
 //! the same rig as ingest saw.
 #![warn(missing_docs)]
 
+pub mod blendshape;
 pub mod dragon;
 pub mod error;
 pub mod external;
@@ -84,6 +85,7 @@ pub fn open(rig: &RigRef, base: &Path, controls: &[String], rest: &[f64]) -> Res
         }
         RigRef::Bvh { path, blake3 } => Ok(Box::new(skeleton::open_bvh(base, path, blake3)?)),
         RigRef::Gltf { path, blake3 } => Ok(Box::new(skeleton::open_gltf(base, path, blake3)?)),
+        RigRef::Blendshapes { path, blake3 } => Ok(Box::new(blendshape::open(base, path, blake3)?)),
         RigRef::None => Err(RigError::Open {
             rig: "none".into(),
             message: "the controls table names no rig (curve tables carry none); mesh-space stages need one: \

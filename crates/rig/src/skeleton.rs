@@ -16,7 +16,7 @@ pub type BvhSkeleton = Local<BvhRig>;
 pub type GltfCharacter = Local<GltfRig>;
 
 /// Fails unless `path` (relative to `base`) still has the content hash ingest saw.
-fn check_hash(base: &Path, path: &str, blake3: &str) -> Result<PathBuf, RigError> {
+pub(crate) fn check_hash(base: &Path, path: &str, blake3: &str) -> Result<PathBuf, RigError> {
     let full = base.join(path);
     let now = reprise_artifact::provenance::hash_file(&full)
         .map_err(|e| RigError::Open { rig: path.into(), message: e.to_string() })?;

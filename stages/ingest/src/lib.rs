@@ -8,6 +8,7 @@
 
 mod curves;
 mod dragon;
+mod faces;
 mod imported;
 mod source;
 
@@ -52,6 +53,10 @@ reprise_stagekit::stage_io! {
         /// Input: BVH motion-capture files, the flag repeated per file (one clip per file, named
         /// by its stem; the files must share one skeleton, which becomes the rig).
         bvh: sources "BVH takes of one skeleton (a file, a list or a glob)",
+        /// Input: the rig of a curve table as a blendshape face: a zip of OBJ meshes,
+        /// `Neutral.obj` and one per shape (e.g. the ARKit reference shapes); each curve
+        /// column names a shape (any case), and shapes the table lacks hold 0.
+        blendshapes: optional_source "a blendshape face (zip of OBJ meshes)",
     }
     outputs {
         /// Output: the frame table.
@@ -144,9 +149,12 @@ impl Args {
                 "nothing to ingest: give --curves FILE, --gltf FILE, --bvh FILE or --generate dragon-face".into(),
             )
         })?;
-        if !self.external_rig.is_empty() && !matches!(source, Source::Curves(_)) {
+        if self.io.blendshapes.is_some() && !self.external_rig.is_empty() {
+            return Err(StageError::Config("give one rig for a curve table: --blendshapes or --external-rig".into()));
+        }
+        if (!self.external_rig.is_empty() || self.io.blendshapes.is_some()) && !matches!(source, Source::Curves(_)) {
             return Err(StageError::Config(
-                "--external-rig is for curve tables; this source brings its own rig".into(),
+                "--external-rig and --blendshapes are for curve tables; this source brings its own rig".into(),
             ));
         }
         Ok(source)
@@ -216,7 +224,18 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     };
     let (frames, controls, clips) = match args.source()? {
         Source::Generate(Generator::DragonFace) => dragon::generate(args.seed, args.corpus_scale),
-        Source::Curves(path) => from_table(args, path)?,
+        Source::Curves(path) => {
+            let (frames, mut controls, clips) = from_table(args, path)?;
+            match &args.io.blendshapes {
+                Some(face) => {
+                    let blake3 = provenance.inputs["blendshapes"].blake3.clone();
+                    let (frames, table) = faces::onto_shapes(frames, face, blake3, &args.ignore_columns)?;
+                    controls = table;
+                    (frames, controls, clips)
+                }
+                None => (frames, controls, clips),
+            }
+        }
         Source::Bvh(paths) => {
             imported::bvh(paths, args.fps, args.max_frames, source_hash()).map_err(StageError::Input)?
         }

@@ -18,6 +18,7 @@ pub(super) fn args(dir: &Path, name: &str, text: &str) -> Args {
             curves: Some(curves),
             bvh: vec![],
             gltf: None,
+            blendshapes: None,
             frames: dir.join("frames.parquet"),
             controls: dir.join("controls.parquet"),
             clips: dir.join("clips.parquet"),

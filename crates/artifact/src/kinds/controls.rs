@@ -51,6 +51,14 @@ pub enum RigRef {
         /// blake3 of the file when it was ingested.
         blake3: String,
     },
+    /// A blendshape face: a zip of OBJ meshes, a neutral and one per shape
+    /// (`reprise_blendshape`).
+    Blendshapes {
+        /// The zip, as given to ingest.
+        path: String,
+        /// blake3 of the file when it was ingested.
+        blake3: String,
+    },
     /// A user's evaluator process speaking Arrow IPC over stdin/stdout.
     External {
         /// Program and arguments.
@@ -148,6 +156,7 @@ mod tests {
             RigRef::DragonFace { seed: 7, version: "v".into() },
             RigRef::Gltf { path: "a.glb".into(), blake3: "00".into() },
             RigRef::Bvh { path: "a.bvh".into(), blake3: "11".into() },
+            RigRef::Blendshapes { path: "face.zip".into(), blake3: "22".into() },
             RigRef::External { command: vec!["rig".into(), "--fast".into()] },
             RigRef::None,
         ] {

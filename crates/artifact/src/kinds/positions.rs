@@ -109,7 +109,9 @@ impl Positions {
         let table = Table::read_any(path)?;
         let rate = match table.metadata().get(KEY_FPS) {
             Some(v) => v.parse::<f64>().map_err(|_| table.invalid(format!("metadata `{KEY_FPS}` is not a number")))?,
-            None => fps.ok_or_else(|| table.invalid(format!("no `{KEY_FPS}` metadata: give the frame rate (the stage's --fps)")))?,
+            None => fps.ok_or_else(|| {
+                table.invalid(format!("no `{KEY_FPS}` metadata: give the frame rate (the stage's --fps)"))
+            })?,
         };
         if !(rate.is_finite() && rate > 0.0) {
             return Err(table.invalid(format!("frame rate {rate} must be positive")));
