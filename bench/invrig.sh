@@ -14,13 +14,17 @@ run() {  # name pipeline artifacts extra-args...
   shift 3
   target/release/reprise run -p "$pipeline" --to positions >/dev/null 2>&1 \
     || { echo "## $name: the pipeline did not run (target/release/reprise run -p $pipeline)"; return; }
-  local out
+  local out bin
   out=$(mktemp -d)
+  dir=$(realpath "$dir")
+  bin=$(realpath target/release/reprise-invrig-apply)
   echo "## $name"
-  RAYON_NUM_THREADS=1 taskset -c 0 target/release/reprise-invrig-apply \
+  # From the pipeline's directory, as the runner runs stages (the rig's paths are relative to it).
+  (cd "$(dirname "$pipeline")" && RAYON_NUM_THREADS=1 taskset -c 0 "$bin" \
     --invrig "$dir/invrig.parquet" --positions "${POSITIONS:-$dir/positions.parquet}" \
     --controls "$dir/controls.parquet" --frames "$dir/frames.parquet" \
-    --recovered "$out/frames.parquet" --errors "$out/errors.parquet" --report "$out/invrig.md" "$@" 2>/dev/null
+    --recovered "$out/frames.parquet" --errors "$out/errors.parquet" --report "$out/invrig.md" "$@" 2>"$out/log") \
+    || { tail -3 "$out/log"; rm -rf "$out"; return 1; }
   sed -n '/^| method/,$p' "$out/invrig.md" | grep -v '^<!--'
   rm -rf "$out"
 }

@@ -186,7 +186,7 @@ pub fn markdown(ctx: &Context<'_>) -> String {
     }
     md.push_str(&format!(
         "- A computed Jacobian costs {} rig evaluations ({free} free controls + 1) of {:.3} ms each here: {:.1} ms; \
-         a step is damped by λ = {:.1e} (length unit), at most {} steps, tolerance {:.1e}, finite-difference step {:.1e}.\n",
+         a step is damped by λ = {:.1e} (length unit per control unit), at most {} steps, tolerance {:.1e}, finite-difference step {:.1e}.\n",
         free + 1,
         s.eval_ms,
         (free + 1) as f64 * s.eval_ms,
