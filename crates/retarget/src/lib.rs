@@ -1,0 +1,10 @@
+//! Semi-supervised facial retargeting (Bouaziz and Pauly,
+//! `shared/papers/bouaziz-semi-supervised-facial-retargeting.md`): the pieces of a shared
+//! GPLVM over a source space (capture) and a target space (a character's controls).
+//!
+//! - [`lle`]: the locally-linear-embedding prior over the shared latents (Eq. 5–8).
+//!
+//! Data are row-major: `n` rows of `d` values. Work in progress (#31): the shared GPLVM's
+//! fit and the per-frame solve are not built yet.
+
+pub mod lle;
