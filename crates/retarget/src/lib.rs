@@ -3,8 +3,10 @@
 //! GPLVM over a source space (capture) and a target space (a character's controls).
 //!
 //! - [`lle`]: the locally-linear-embedding prior over the shared latents (Eq. 5–8).
+//! - [`shared`]: the shared GPLVM's objective and gradient over index sets (Eq. 1–5).
 //!
 //! Data are row-major: `n` rows of `d` values. Work in progress (#31): the shared GPLVM's
 //! fit and the per-frame solve are not built yet.
 
 pub mod lle;
+pub mod shared;
