@@ -3,10 +3,11 @@
 //! GPLVM over a source space (capture) and a target space (a character's controls).
 //!
 //! - [`lle`]: the locally-linear-embedding prior over the shared latents (Eq. 5–8).
-//! - [`shared`]: the shared GPLVM's objective and gradient over index sets (Eq. 1–5).
+//! - [`shared`]: the shared GPLVM over index sets (Eq. 1–5): objective and gradient, an
+//!   initialisation, the L-BFGS fit, and each space's GP mean (Eq. 16, 18).
 //!
-//! Data are row-major: `n` rows of `d` values. Work in progress (#31): the shared GPLVM's
-//! fit and the per-frame solve are not built yet.
+//! Data are row-major: `n` rows of `d` values. Work in progress (#31): the per-frame source
+//! solve (Eq. 12–17) and the stages are not built yet.
 
 pub mod lle;
 pub mod shared;
