@@ -5,9 +5,12 @@
 //! - [`lle`]: the locally-linear-embedding prior over the shared latents (Eq. 5–8).
 //! - [`shared`]: the shared GPLVM over index sets (Eq. 1–5): objective and gradient, an
 //!   initialisation, the L-BFGS fit, and each space's GP mean (Eq. 16, 18).
+//! - [`source`]: the per-frame source solve with the temporal term and missing markers
+//!   (Eq. 12–17).
 //!
-//! Data are row-major: `n` rows of `d` values. Work in progress (#31): the per-frame source
-//! solve (Eq. 12–17) and the stages are not built yet.
+//! Data are row-major: `n` rows of `d` values. Work in progress (#31): the stages and the
+//! protocols are not built yet.
 
 pub mod lle;
 pub mod shared;
+pub mod source;
