@@ -183,23 +183,35 @@ pub fn fit(obj: &mut SharedObjective, start: &[f64], opts: &LbfgsOptions) -> (Ve
 /// # Errors
 /// A kernel matrix that will not factor; bad shapes.
 pub fn predictor(space: &Space<'_>, z: &[f64], q: usize, hyper: Hyper) -> Result<MeanPredictor, GplvmError> {
-    let zs: Vec<f64> = space.rows.iter().flat_map(|&r| z[r * q..(r + 1) * q].iter().copied()).collect();
+    let zs = owned_latents(space, z, q);
     let m = space.rows.len();
-    let mut k = Mat::<f64>::zeros(m, m);
-    let mut row = vec![0.0; m];
-    for i in 0..m {
-        rbf_vector(&zs[i * q..(i + 1) * q], &zs, &hyper, &mut row);
-        for (j, v) in row.iter().enumerate() {
-            k[(i, j)] = *v;
-        }
-        k[(i, i)] += hyper.white_variance;
-    }
+    let k = kernel_matrix(&zs, q, &hyper);
     let mut rhs = Mat::from_fn(m, space.dim, |i, j| space.data[i * space.dim + j]);
     k.llt(Side::Lower)
         .map_err(|_| GplvmError::Shape("the kernel matrix is not positive definite".into()))?
         .solve_in_place(rhs.as_mut());
     let kinv_d = (0..m).flat_map(|i| (0..space.dim).map(move |j| (i, j))).map(|(i, j)| rhs[(i, j)]).collect();
     MeanPredictor::from_parts(zs, kinv_d, q, space.dim, hyper)
+}
+
+/// The latents `space` owns, in its rows' order.
+pub fn owned_latents(space: &Space<'_>, z: &[f64], q: usize) -> Vec<f64> {
+    space.rows.iter().flat_map(|&r| z[r * q..(r + 1) * q].iter().copied()).collect()
+}
+
+/// $K = K^{rbf} + \sigma_w^2 I$ over the latents `zs` (`m × q`).
+pub fn kernel_matrix(zs: &[f64], q: usize, hyper: &Hyper) -> Mat<f64> {
+    let m = zs.len() / q;
+    let mut k = Mat::<f64>::zeros(m, m);
+    let mut row = vec![0.0; m];
+    for i in 0..m {
+        rbf_vector(&zs[i * q..(i + 1) * q], zs, hyper, &mut row);
+        for (j, v) in row.iter().enumerate() {
+            k[(i, j)] = *v;
+        }
+        k[(i, i)] += hyper.white_variance;
+    }
+    k
 }
 
 #[cfg(test)]

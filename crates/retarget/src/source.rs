@@ -11,18 +11,19 @@
 //! $\sigma_p^2(z) = \sigma_f^2 + \sigma_w^2 - k(z)^\top K^{-1} k(z)$ (Eq. 16–17). A missing
 //! dimension has $\sigma_c = \infty$: only the prior and the temporal term hold it.
 
-use faer::linalg::solvers::DenseSolveCore;
+use faer::linalg::solvers::Llt;
+use faer::prelude::Solve;
 use faer::{Mat, Side};
+use reprise_numerics::gplvm::kernel::rbf_vector;
 use reprise_numerics::gplvm::{GplvmError, Hyper, MeanPredictor};
 use reprise_numerics::lbfgs::{lbfgs, LbfgsOptions};
 
-use crate::shared::{predictor, Space};
+use crate::shared::{kernel_matrix, owned_latents, predictor, Space};
 
 /// The source space's GP: its mean and the inverse kernel for its variance.
-#[derive(Debug, Clone)]
 pub struct SourceGp {
     mean: MeanPredictor,
-    kinv: Mat<f64>,
+    llt: Llt<f64>,
     z: Vec<f64>,
     q: usize,
     hyper: Hyper,
@@ -57,24 +58,23 @@ impl SourceGp {
     /// A kernel that will not factor.
     pub fn new(space: &Space<'_>, z: &[f64], q: usize, hyper: Hyper) -> Result<Self, GplvmError> {
         let mean = predictor(space, z, q, hyper)?;
-        let zs: Vec<f64> = space.rows.iter().flat_map(|&r| z[r * q..(r + 1) * q].iter().copied()).collect();
-        let m = space.rows.len();
-        let k = Mat::from_fn(m, m, |i, j| {
-            kern(&zs[i * q..(i + 1) * q], &zs[j * q..(j + 1) * q], &hyper)
-                + if i == j { hyper.white_variance } else { 0.0 }
-        });
+        let zs = owned_latents(space, z, q);
+        let k = kernel_matrix(&zs, q, &hyper);
         let llt =
             k.llt(Side::Lower).map_err(|_| GplvmError::Shape("the kernel matrix is not positive definite".into()))?;
-        let kinv = llt.inverse();
-        Ok(Self { mean, kinv, z: zs, q, hyper })
+        Ok(Self { mean, llt, z: zs, q, hyper })
     }
 
     /// $\sigma_p^2(z)$ and its gradient.
     pub fn variance(&self, z: &[f64]) -> (f64, Vec<f64>) {
         let q = self.q;
         let m = self.z.len() / q;
-        let k: Vec<f64> = (0..m).map(|i| kern(z, &self.z[i * q..(i + 1) * q], &self.hyper)).collect();
-        let kk: Vec<f64> = (0..m).map(|i| (0..m).map(|j| self.kinv[(i, j)] * k[j]).sum()).collect();
+        let mut k = vec![0.0; m];
+        rbf_vector(z, &self.z, &self.hyper, &mut k);
+        // K⁻¹k by the Cholesky factor (better conditioned than an explicit inverse).
+        let mut a = Mat::from_fn(m, 1, |i, _| k[i]);
+        self.llt.solve_in_place(a.as_mut());
+        let kk: Vec<f64> = (0..m).map(|i| a[(i, 0)]).collect();
         let var =
             self.hyper.rbf_variance + self.hyper.white_variance - k.iter().zip(&kk).map(|(a, b)| a * b).sum::<f64>();
         // ∂k_i/∂z = −k_i (z − z_i)/ℓ²; ∂σ²/∂z = −2 Σ_i (K⁻¹k)_i ∂k_i/∂z.
@@ -165,12 +165,6 @@ impl SourceGp {
     }
 }
 
-/// The RBF kernel without the white term, $\sigma_f^2\exp(-\lVert a - b\rVert^2 / 2\ell^2)$.
-fn kern(a: &[f64], b: &[f64], h: &Hyper) -> f64 {
-    let d2: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
-    h.rbf_variance * (-0.5 * d2 / (h.lengthscale * h.lengthscale)).exp()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -180,7 +174,7 @@ mod tests {
         let t: Vec<f64> = (0..12).map(|i| -1.5 + 3.0 * f64::from(i) / 11.0).collect();
         let x: Vec<f64> = t.iter().flat_map(|&s| [s.sin(), s.cos(), 0.5 * s]).collect();
         let space = Space { data: &x, dim: 3, rows: (0..12).collect() };
-        let hyper = Hyper { rbf_variance: 1.0, lengthscale: 0.8, white_variance: 1e-4 };
+        let hyper = Hyper { rbf_variance: 1.0, lengthscale: 0.8, white_variance: 1e-3 };
         (SourceGp::new(&space, &t, 1, hyper).unwrap(), t)
     }
 
@@ -193,7 +187,8 @@ mod tests {
         let p = [0.28, 0.93, 0.21, 0.37];
         for seen in [[true, true, true], [true, false, true]] {
             let (_, grad) = g.objective(&p, &observed, &seen, Some(&previous), noise);
-            // E is large near the manifold (σ_p² ≈ 1e-4): smaller steps lose to rounding.
+            // σ_p² is a difference of nearly equal numbers near the manifold: smaller steps
+            // lose to rounding.
             let h = 1e-5;
             for i in 0..p.len() {
                 let (mut a, mut b) = (p, p);
@@ -220,6 +215,6 @@ mod tests {
         let f = g.solve(&[observed[0], 0.0, observed[2], 0.0], &observed, &seen, None, noise);
         assert!((f.x[1] - truth[1]).abs() < 0.05, "filled {} vs {}", f.x[1], truth[1]);
         assert!((f.z[0] - s).abs() < 0.1, "latent {} vs {s}", f.z[0]);
-        assert!(f.variance < 0.01, "on the manifold the variance is small: {}", f.variance);
+        assert!(f.variance < 3e-3, "on the manifold the variance is near σ_w² = 1e-3: {}", f.variance);
     }
 }
