@@ -2,6 +2,7 @@
 //! `shared/papers/bouaziz-semi-supervised-facial-retargeting.md`): the pieces of a shared
 //! GPLVM over a source space (capture) and a target space (a character's controls).
 //!
+//! - [`baselines`]: ridge regression and GPR on the labelled pairs alone.
 //! - [`lle`]: the locally-linear-embedding prior over the shared latents (Eq. 5–8).
 //! - [`shared`]: the shared GPLVM over index sets (Eq. 1–5): objective and gradient, an
 //!   initialisation, the L-BFGS fit, and each space's GP mean (Eq. 16, 18).
@@ -11,6 +12,7 @@
 //! Data are row-major: `n` rows of `d` values. Work in progress (#31): the stages and the
 //! protocols are not built yet.
 
+pub mod baselines;
 pub mod lle;
 pub mod shared;
 pub mod source;
