@@ -4,6 +4,8 @@
 //!
 //! - [`baselines`]: ridge regression and GPR on the labelled pairs alone.
 //! - [`lle`]: the locally-linear-embedding prior over the shared latents (Eq. 5–8).
+//! - [`protocol`]: the paper's comparison on a blocked split: RMS against label count for
+//!   every method over random draws of the labelled frames.
 //! - [`shared`]: the shared GPLVM over index sets (Eq. 1–5): objective and gradient, an
 //!   initialisation, the L-BFGS fit, and each space's GP mean (Eq. 16, 18).
 //! - [`source`]: the per-frame source solve with the temporal term and missing markers
@@ -14,5 +16,6 @@
 
 pub mod baselines;
 pub mod lle;
+pub mod protocol;
 pub mod shared;
 pub mod source;
