@@ -248,18 +248,16 @@ pub fn refine(
             stop = Stop::Converged;
             break;
         }
-        let j = match jacobian {
+        let j: &Mat<f64> = match jacobian {
             Jacobian::Computed { step } | Jacobian::Broyden { step } if carried.is_none() => {
                 let (_, jac) = fd_jacobian(rig, &y, step, free)?;
                 evaluations += free_count + 1;
-                carried.insert((jac, true)).0.clone()
+                &carried.insert((jac, true)).0
             }
-            Jacobian::Computed { .. } | Jacobian::Broyden { .. } => {
-                carried.as_ref().map(|c| c.0.clone()).expect("set above")
-            }
-            Jacobian::Given(j) => j.clone(),
+            Jacobian::Computed { .. } | Jacobian::Broyden { .. } => &carried.as_ref().expect("set above").0,
+            Jacobian::Given(j) => j,
         };
-        let mut dy = damped_step(&j, &r, s.lambda, free)?;
+        let mut dy = damped_step(j, &r, s.lambda, free)?;
         iterations += 1;
         let mut accepted = None;
         for _ in 0..=HALVINGS {

@@ -149,15 +149,20 @@ impl Frames {
 
     /// Row ranges `(clip, first_row, end_row_exclusive)` of consecutive rows per clip.
     pub fn clip_runs(&self) -> Vec<(String, usize, usize)> {
-        let mut runs: Vec<(String, usize, usize)> = Vec::new();
-        for (r, clip) in self.clip.iter().enumerate() {
-            match runs.last_mut() {
-                Some(last) if &last.0 == clip => last.2 = r + 1,
-                _ => runs.push((clip.clone(), r, r + 1)),
-            }
-        }
-        runs
+        clip_runs(&self.clip)
     }
+}
+
+/// Row ranges `(clip, first_row, end_row_exclusive)` of consecutive equal names in `clip`.
+pub fn clip_runs(clip: &[String]) -> Vec<(String, usize, usize)> {
+    let mut runs: Vec<(String, usize, usize)> = Vec::new();
+    for (r, name) in clip.iter().enumerate() {
+        match runs.last_mut() {
+            Some(last) if &last.0 == name => last.2 = r + 1,
+            _ => runs.push((name.clone(), r, r + 1)),
+        }
+    }
+    runs
 }
 
 /// Frames that carry a label and a segment, as written by the label stage.

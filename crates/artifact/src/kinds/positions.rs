@@ -59,14 +59,7 @@ impl Positions {
 
     /// Row ranges `(clip, first, end_exclusive)` of consecutive frames per clip.
     pub fn clip_runs(&self) -> Vec<(String, usize, usize)> {
-        let mut runs: Vec<(String, usize, usize)> = Vec::new();
-        for (r, clip) in self.clip.iter().enumerate() {
-            match runs.last_mut() {
-                Some(last) if &last.0 == clip => last.2 = r + 1,
-                _ => runs.push((clip.clone(), r, r + 1)),
-            }
-        }
-        runs
+        crate::frames::clip_runs(&self.clip)
     }
 
     /// Writes the table atomically.
