@@ -147,7 +147,16 @@ impl Blendshapes {
                     ),
                 });
             }
+            let start = deltas.len();
             deltas.extend(mesh.positions.iter().zip(&neutral.positions).map(|(s, n)| s - n));
+            if let Some(i) = deltas[start..].iter().position(|d| !d.is_finite()) {
+                return Err(BlendshapeError::Obj {
+                    path: shown.clone(),
+                    entry: entry.clone(),
+                    line: None,
+                    message: format!("vertex {} moves by more than a number can hold from the neutral mesh", i / 3 + 1),
+                });
+            }
         }
         Ok(Self {
             names: shapes.into_iter().map(|s| s.0).collect(),
@@ -281,6 +290,18 @@ mod tests {
         std::fs::write(dir.path().join("x.zip"), "not a zip").unwrap();
         let e = Blendshapes::read_zip(&dir.path().join("x.zip")).unwrap_err().to_string();
         assert!(e.contains("x.zip") && e.contains("not a readable zip"), "{e}");
+    }
+
+    /// Found by reading the format's limits: a shape at +1e308 over a neutral at −1e308 has
+    /// an infinite delta, which would make every pose infinite.
+    #[test]
+    fn a_delta_beyond_f64_is_refused() {
+        let (_d, path) = zip_of(&[
+            ("Neutral.obj", "v -1e308 0 0\nv 1 0 0\nv 0 1 0\n"),
+            ("far.obj", "v 1e308 0 0\nv 1 0 0\nv 0 1 0\n"),
+        ]);
+        let e = Blendshapes::read_zip(&path).unwrap_err().to_string();
+        assert!(e.contains("far.obj") && e.contains("vertex 1"), "{e}");
     }
 
     #[test]
