@@ -4,7 +4,7 @@
 use std::path::Path;
 
 /// (binary, the stage crate under `stages/` that implements it).
-const STAGES: [(&str, &str); 15] = [
+const STAGES: [(&str, &str); 18] = [
     ("reprise-ingest", "ingest"),
     ("reprise-label", "label"),
     ("reprise-scale", "scale"),
@@ -20,6 +20,9 @@ const STAGES: [(&str, &str); 15] = [
     ("reprise-positions", "positions"),
     ("reprise-invrig-fit", "invrig-fit"),
     ("reprise-invrig-apply", "invrig-apply"),
+    ("reprise-retarget-fit", "retarget-fit"),
+    ("reprise-retarget-apply", "retarget-apply"),
+    ("reprise-retarget-oracle", "retarget-oracle"),
 ];
 
 fn main() {

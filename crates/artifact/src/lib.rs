@@ -15,6 +15,9 @@
 //! | `curves` | [`curves`] | synthesize | evaluate, glTF export |
 //! | `mg_nodes`, `mg_edges` | [`motion_graph`] | motion-graph | transitions |
 //! | `transition_requests` | [`transitions`] | transitions | evaluate |
+//! | `positions` | [`positions`] | positions (or a user) | invrig-apply, retarget-fit, retarget |
+//! | `invrig`, `invrig_errors` | [`invrig`] | invrig-fit, invrig-apply | positions, invrig-apply |
+//! | `retarget`, `retarget_frames` | [`retarget`] | retarget-fit, retarget | retarget |
 //!
 //! Every file carries provenance ([`provenance`]) in its Parquet key-value metadata and
 //! is written atomically ([`table::write_atomic`]).
@@ -39,12 +42,13 @@ mod kinds {
     pub mod motion_graph;
     pub mod pca;
     pub mod positions;
+    pub mod retarget;
     pub mod scales;
     pub mod segments;
     pub mod transitions;
 }
 pub use kinds::{
-    bridges, clips, controls, curves, frames, gplvm, invrig, motion_graph, pca, positions, scales, segments,
+    bridges, clips, controls, curves, frames, gplvm, invrig, motion_graph, pca, positions, retarget, scales, segments,
     transitions,
 };
 

@@ -49,4 +49,7 @@ stages![
     reprise_positions,
     reprise_invrig_fit,
     reprise_invrig_apply,
+    reprise_retarget_fit,
+    reprise_retarget_apply,
+    reprise_retarget_oracle,
 ];

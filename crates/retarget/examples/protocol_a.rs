@@ -9,7 +9,7 @@
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use reprise_retarget::protocol::{compare, Config};
+use reprise_retarget::protocol::{compare, noise_levels, source_scale, Config, Init};
 use reprise_retarget::source::Noise;
 
 fn main() {
@@ -44,20 +44,30 @@ fn main() {
     }
     let train = 0..(n * 70 / 100);
     let test = (n * 75 / 100)..n;
+    let env = |k: &str| std::env::var(k).ok();
     let cfg = Config {
-        labels: vec![5, 10, 20],
+        labels: env("RT_LABELS").map_or(vec![5, 10, 20], |v| v.split(',').filter_map(|s| s.parse().ok()).collect()),
         draws,
-        unlabelled: 100.min((train.len() - 20) / 2),
-        q: 8,
+        unlabelled: env("RT_UNLABELLED").and_then(|v| v.parse().ok()).unwrap_or(100).min((train.len() - 20) / 2),
+        q: env("RT_Q").and_then(|v| v.parse().ok()).unwrap_or(8),
         k: 8,
         alpha: 1e-3,
         noise: Noise { capture: 0.1, temporal: 1.0 },
-        max_iters: 300,
+        capture_noise: (env("RT_SIGMA").as_deref() != Some("fixed")).then_some(noise_m),
+        temporal_from_data: env("RT_SIGMA").as_deref() != Some("fixed"),
+        init: if env("RT_INIT").as_deref() == Some("pca") { Init::Pca } else { Init::Alignment },
+        gaussian_prior: env("RT_GPRIOR").as_deref() != Some("0"),
+        max_iters: env("RT_ITERS").and_then(|v| v.parse().ok()).unwrap_or(300),
         seed: 7,
     };
     println!(
         "{n} frames, {} markers ({noise_m} m noise), {dy} weights; train {train:?}, test {test:?}, {draws} draws",
         landmarks.len()
+    );
+    let scale = source_scale(&x, dx);
+    println!(
+        "{cfg:?}\nsource scale {scale:.4} m; per-frame noise (normalised) {:?}",
+        noise_levels(&x, dx, scale, train.clone(), &cfg)
     );
     let rows = compare(&x, dx, frames.values.as_slice(), dy, train, test, &cfg).expect("compare");
     println!("| labels | method | weight RMS |\n|---|---|---|");

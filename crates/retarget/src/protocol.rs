@@ -12,6 +12,7 @@ use rand_chacha::ChaCha8Rng;
 use reprise_numerics::gplvm::{GplvmError, LikelihoodConfig};
 use reprise_numerics::lbfgs::LbfgsOptions;
 
+use crate::align::{align, denoise};
 use crate::baselines::{gpr, Ridge};
 use crate::lle;
 use crate::shared::{fit, initial_latents, predictor, SharedObjective, Space};
@@ -53,12 +54,34 @@ pub struct Config {
     pub k: usize,
     /// Ridge penalty (in the normalised units).
     pub alpha: f64,
-    /// The per-frame solve's noise levels (normalised units).
+    /// The per-frame solve's noise levels (normalised units), used where
+    /// [`Config::capture_noise`] and [`Config::temporal_from_data`] do not set them.
     pub noise: Noise,
+    /// The capture system's noise, a standard deviation per source value in *source* units
+    /// (the paper fixes $\sigma_c$ from it): $\sigma_c$ = this / the source's scale.
+    pub capture_noise: Option<f64>,
+    /// Whether $\sigma_t$ is estimated from the training block (see [`noise_levels`]).
+    pub temporal_from_data: bool,
+    /// How the shared GPLVM's latents start.
+    pub init: Init,
+    /// Whether the GPLVM methods without the LLE prior get the unit Gaussian prior
+    /// $\tfrac12\lVert Z\rVert^2$ (the LLE prior's $L = M^\top M + I$ with $M = 0$).
+    pub gaussian_prior: bool,
     /// L-BFGS iterations of a shared GPLVM fit.
     pub max_iters: usize,
     /// Seed of the draws.
     pub seed: u64,
+}
+
+/// The start of the shared GPLVM's latents.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Init {
+    /// Source principal coordinates, target-only rows at their nearest labelled row
+    /// ([`initial_latents`]).
+    Pca,
+    /// Semi-supervised manifold alignment with the LLE's `k` ([`crate::align::align`]), the
+    /// paper's.
+    Alignment,
 }
 
 /// One method at one label count.
@@ -94,6 +117,43 @@ fn rows(v: &[f64], d: usize, idx: &[usize]) -> Vec<f64> {
     idx.iter().flat_map(|&r| v[r * d..(r + 1) * d].iter().copied()).collect()
 }
 
+/// The per-frame solve's noise levels in normalised units, for a source `x` (`n × dx`)
+/// whose normalisation divides by `scale`:
+///
+/// - $\sigma_c$ = `cfg.capture_noise / scale` when the capture noise is known;
+/// - $\sigma_t$, when `cfg.temporal_from_data`, from the consecutive frames of the training
+///   block: their mean squared difference per value, $s^2 = \frac{1}{(T-1)d_x}
+///   \sum_k \lVert x_k - x_{k-1}\rVert^2$, holds the motion's and twice the capture noise's
+///   variance, so $\sigma_t^2 = s^2 - 2\sigma_c^2$, the motion between denoised frames
+///   (floored at $s^2/100$ should the stated noise explain all the differences).
+pub fn noise_levels(x: &[f64], dx: usize, scale: f64, train: std::ops::Range<usize>, cfg: &Config) -> Noise {
+    let capture = cfg.capture_noise.map_or(cfg.noise.capture, |c| c / scale);
+    let temporal = if cfg.temporal_from_data && train.len() >= 2 {
+        let sq: f64 = train
+            .clone()
+            .skip(1)
+            .map(|k| {
+                x[k * dx..(k + 1) * dx]
+                    .iter()
+                    .zip(&x[(k - 1) * dx..k * dx])
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .sum::<f64>()
+            })
+            .sum();
+        let s2 = sq / ((train.len() - 1) * dx) as f64 / (scale * scale);
+        (s2 - 2.0 * capture * capture).max(1e-2 * s2).sqrt()
+    } else {
+        cfg.noise.temporal
+    };
+    Noise { capture, temporal }
+}
+
+/// The source's normalisation scale (its largest per-value standard deviation), as
+/// [`compare`] uses it.
+pub fn source_scale(x: &[f64], dx: usize) -> f64 {
+    normalise(x, dx).scale
+}
+
 /// Runs the comparison on source `x` (`n × dx`) and target `y` (`n × dy`), training block
 /// `train`, test block `test` (row ranges of both).
 ///
@@ -110,6 +170,7 @@ pub fn compare(
     cfg: &Config,
 ) -> Result<Vec<Row>, GplvmError> {
     let (nx, ny) = (normalise(x, dx), normalise(y, dy));
+    let noise = noise_levels(x, dx, nx.scale, train.clone(), cfg);
     let test_rows: Vec<usize> = test.collect();
     let truth = rows(y, dy, &test_rows);
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
@@ -130,7 +191,7 @@ pub fn compare(
             let src_only = &pool[l..l + cfg.unlabelled];
             let tgt_only = &pool[l + cfg.unlabelled..l + 2 * cfg.unlabelled];
             for (m, method) in Method::ALL.into_iter().enumerate() {
-                let pred = predict(method, &nx, &ny, (labelled, src_only, tgt_only), &test_rows, cfg)?;
+                let pred = predict(method, &nx, &ny, (labelled, src_only, tgt_only), &test_rows, noise, cfg)?;
                 let denorm: Vec<f64> = pred
                     .chunks_exact(dy)
                     .flat_map(|r| r.iter().zip(&ny.mean).map(|(a, mu)| a * ny.scale + mu).collect::<Vec<_>>())
@@ -155,6 +216,7 @@ fn predict(
     ny: &Normalised,
     (labelled, src_only, tgt_only): (&[usize], &[usize], &[usize]),
     test: &[usize],
+    noise: Noise,
     cfg: &Config,
 ) -> Result<Vec<f64>, GplvmError> {
     let (dx, dy) = (nx.dim, ny.dim);
@@ -185,17 +247,27 @@ fn predict(
             let source = Space { data: &xs, dim: dx, rows: x_rows.clone() };
             let target = Space { data: &ys, dim: dy, rows: y_rows.clone() };
             let q = cfg.q.min(dx).min(l + s.len() - 1).max(1);
-            let prior = (method == Method::SemiSupervisedLle)
-                .then(|| -> Result<_, GplvmError> {
-                    let k = cfg.k.min(x_rows.len() - 1).min(y_rows.len() - 1).max(1);
-                    let wx = lle::weights(&xs, dx, k).map_err(|e| GplvmError::Shape(e.to_string()))?;
-                    let wy = lle::weights(&ys, dy, k).map_err(|e| GplvmError::Shape(e.to_string()))?;
-                    Ok(lle::prior_matrix(&[(&wx, &x_rows), (&wy, &y_rows)], n))
-                })
-                .transpose()?;
+            let k = cfg.k.min(x_rows.len() - 1).min(y_rows.len() - 1).max(1);
+            let prior = if method == Method::SemiSupervisedLle {
+                let wx = lle::weights(&xs, dx, k).map_err(|e| GplvmError::Shape(e.to_string()))?;
+                let wy = lle::weights(&ys, dy, k).map_err(|e| GplvmError::Shape(e.to_string()))?;
+                Some(lle::prior_matrix(&[(&wx, &x_rows), (&wy, &y_rows)], n))
+            } else {
+                cfg.gaussian_prior.then(|| faer::Mat::<f64>::identity(n, n))
+            };
             let mut obj =
                 SharedObjective::new(&[source.clone(), target.clone()], n, q, prior, LikelihoodConfig::default())?;
-            let mut start = initial_latents(&source, &target, n, q)?;
+            let mut start = match cfg.init {
+                Init::Pca => initial_latents(&source, &target, n, q)?,
+                Init::Alignment => {
+                    // The source's neighbourhoods without the capture noise (when it is known).
+                    let clean = match cfg.capture_noise {
+                        Some(_) => denoise(&xs, dx, noise.capture * noise.capture)?,
+                        None => xs.clone(),
+                    };
+                    align(&[Space { data: &clean, ..source.clone() }, target.clone()], n, q, k)?
+                }
+            };
             start.extend([0.0, 0.0, (1e-2f64).ln(), 0.0, 0.0, (1e-2f64).ln()]);
             let (p, _) = fit(&mut obj, &start, &LbfgsOptions { max_iters: cfg.max_iters, ..LbfgsOptions::default() });
             let hyper = |k: usize| {
@@ -212,7 +284,7 @@ fn predict(
                 let d2 = |r: usize| xs[r * dx..(r + 1) * dx].iter().zip(x).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
                 let near = x_rows.iter().copied().min_by(|&a, &b| d2(a).total_cmp(&d2(b))).unwrap_or(0);
                 let start = [x, &z[near * q..(near + 1) * q]].concat();
-                let f = gp.solve(&start, x, &vec![true; dx], previous.as_deref(), cfg.noise);
+                let f = gp.solve(&start, x, &vec![true; dx], previous.as_deref(), noise);
                 tp.mean(&f.z, o);
                 previous = Some(f.x);
             }
@@ -240,6 +312,10 @@ mod tests {
             k: 4,
             alpha: 1e-3,
             noise: Noise { capture: 0.05, temporal: 10.0 },
+            capture_noise: None,
+            temporal_from_data: false,
+            init: Init::Alignment,
+            gaussian_prior: true,
             max_iters: 300,
             seed: 3,
         };

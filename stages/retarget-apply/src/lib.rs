@@ -1,0 +1,327 @@
+//! The retarget-apply stage: a capture (marker positions per frame) onto a character's rig
+//! through a model of `retarget-fit`. Each frame is the MAP solve of Bouaziz and Pauly
+//! (Eq. 12–17): the capture's noise, the step from the previous frame of the clip, and the
+//! source GP's manifold; markers named by `--missing` are unseen on every frame and filled
+//! in from the manifold. The character's pose is the target GP's mean at the latent found
+//! (Eq. 18), decoded from the scaled PCA space to every control.
+//!
+//! The curves are a `curves` table (script = the capture's clip), so glTF export and the
+//! players read them as synthesized animation. Where the character's poses are known
+//! (`--truth`, e.g. an oracle's), every frame's mesh error is measured, and ridge regression
+//! and GPR fitted on the same labelled pairs are measured beside it by the same code.
+
+use std::time::Instant;
+
+use clap::Parser;
+use reprise_artifact::controls::Controls;
+use reprise_artifact::curves::{self, Curves, Frame};
+use reprise_artifact::frames::Frames;
+use reprise_artifact::positions::{point_mismatch, Positions};
+use reprise_artifact::retarget::{write_frames, MappedFrame, Retarget, Role};
+use reprise_numerics::gplvm::Hyper;
+use reprise_retarget::baselines::{gpr, Ridge};
+use reprise_retarget::model::{Affine, Mapper, Model};
+use reprise_retarget::source::Noise;
+use reprise_retarget::target::TargetSpace;
+use reprise_stagekit::{StageError, StageResult};
+use serde::Serialize;
+
+pub mod report;
+
+reprise_stagekit::stage_io! {
+    stage: "retarget-apply", bin: "reprise-retarget-apply",
+    partition: Whole,
+    derived: [],
+    inputs {
+        /// Input: the fitted model.
+        model: required "retarget.parquet",
+        /// Input: the capture to map, marker positions per frame.
+        capture: required "capture.parquet",
+        /// Input: the character's controls table (names its rig).
+        controls: required "controls.parquet",
+        /// Input (optional): the character's known poses for the capture's frames, named by
+        /// the capture's clip and frame.
+        truth: optional "truth.parquet",
+    }
+    outputs {
+        /// Output: the character's curves, one script per capture clip.
+        curves: artifact "curves.parquet",
+        /// Output: per frame, the residual, variance, time and mesh error.
+        frames: artifact "retarget_frames.parquet",
+        /// Output: the Markdown report.
+        report: report "retarget.md",
+    }
+}
+
+/// `reprise-retarget-apply`: a capture onto a character's rig.
+#[derive(Debug, Clone, Parser, Serialize)]
+#[command(name = "reprise-retarget-apply", version, about)]
+pub struct Args {
+    /// The stage's files.
+    #[command(flatten)]
+    #[serde(skip)]
+    pub io: Io,
+    /// Markers (point ids of the capture) unseen on every frame (comma-separated).
+    #[arg(long, value_delimiter = ',')]
+    pub missing: Vec<i64>,
+    /// Capture clips to map: glob patterns (comma-separated; none: every clip).
+    #[arg(long, value_delimiter = ',')]
+    pub clips: Vec<String>,
+    /// The temporal term (off: every frame is solved alone).
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    pub temporal: bool,
+    /// Ridge penalty of the ridge baseline, in normalised units.
+    #[arg(long, default_value_t = 1e-3)]
+    pub ridge: f64,
+    /// Frame rate of a capture without `reprise.fps` metadata.
+    #[arg(long)]
+    pub fps: Option<f64>,
+    /// Limit: capture frames mapped.
+    #[arg(long, default_value_t = 1_000_000)]
+    pub max_frames: usize,
+}
+
+/// The model name written in the curves' `model` column.
+pub const MODEL: &str = "retarget";
+
+/// What the stage did.
+#[derive(Debug, Clone)]
+pub struct Summary {
+    /// Per frame.
+    pub frames: Vec<MappedFrame>,
+    /// Mean mesh error of each baseline (ridge, GPR) where the poses are known.
+    pub baselines: Vec<(String, f64)>,
+    /// Labelled pairs, source frames, target poses of the model.
+    pub rows: (usize, usize, usize),
+    /// Seconds the model's fit took.
+    pub fit_seconds: f64,
+    /// Target-space components.
+    pub components: usize,
+}
+
+/// The model of an artifact.
+pub fn model_of(r: &Retarget) -> (Model, TargetSpace) {
+    let s = &r.settings;
+    let model = Model {
+        q: s.q,
+        labelled: r.counts().0,
+        x_norm: Affine { mean: s.source.mean.clone(), scale: s.source.scale },
+        y_norm: Affine { mean: s.target.mean.clone(), scale: s.target.scale },
+        x: r.x.clone(),
+        y: r.y.clone(),
+        z: r.z.clone(),
+        hyper_x: Hyper::from_log(s.source_kernel),
+        hyper_y: Hyper::from_log(s.target_kernel),
+    };
+    let space = TargetSpace {
+        weights: s.space.weights.clone(),
+        held: s.space.held.clone(),
+        mean: s.space.mean.clone(),
+        directions: s.space.directions.clone(),
+        explained: s.space.explained,
+    };
+    (model, space)
+}
+
+/// Which capture values are seen: false for the three coordinates of each `missing` point.
+///
+/// # Errors
+/// A missing point the capture does not hold; every point missing.
+pub fn seen_mask(points: &[i64], missing: &[i64]) -> StageResult<Vec<bool>> {
+    if let Some(p) = missing.iter().find(|p| !points.contains(p)) {
+        return Err(StageError::Config(format!("--missing {p}: the capture has no such point")));
+    }
+    if points.iter().all(|p| missing.contains(p)) {
+        return Err(StageError::Config("--missing names every point: nothing is left to map".into()));
+    }
+    Ok(points.iter().flat_map(|p| [!missing.contains(p); 3]).collect())
+}
+
+/// Runs the stage (or only validates, with `--check`).
+pub fn run(args: &Args) -> StageResult<Option<Summary>> {
+    let clips = reprise_stagekit::clips::matcher(&args.clips, "--clips")?;
+    if args.fps.is_some_and(|f| !(f.is_finite() && f > 0.0)) || !(args.ridge.is_finite() && args.ridge > 0.0) {
+        return Err(StageError::Config("--fps and --ridge must be finite and positive".into()));
+    }
+    if args.io.check {
+        return Ok(None);
+    }
+    let provenance = args.io.provenance(args)?;
+    let fitted = Retarget::read(&args.io.model)?;
+    let capture = Positions::read(&args.io.capture, args.fps)?;
+    if capture.points != fitted.settings.points {
+        return Err(point_mismatch(&args.io.capture, &fitted.settings.points, &capture.points).into());
+    }
+    let rows: Vec<usize> =
+        (0..capture.frames()).filter(|&r| clips.as_ref().is_none_or(|m| m.is_match(&capture.clip[r]))).collect();
+    if rows.is_empty() || rows.len() > args.max_frames {
+        return Err(StageError::Input(format!(
+            "{}: {} frames to map (clips {:?}); between 1 and --max-frames {}",
+            args.io.capture.display(),
+            rows.len(),
+            args.clips,
+            args.max_frames
+        )));
+    }
+    let seen = seen_mask(&capture.points, &args.missing)?;
+    let controls = Controls::read(&args.io.controls)?;
+    let names = &fitted.settings.controls;
+    let rig = reprise_stagekit::rig::open_rig(&controls, names)?;
+    let truth = args.io.truth.as_deref().map(|p| known_poses(p, names, &capture, &rows)).transpose()?;
+
+    let (model, space) = model_of(&fitted);
+    let s = &fitted.settings;
+    let mapper = Mapper::new(&model, Noise { capture: s.capture_noise, temporal: s.temporal_noise })
+        .map_err(|e| StageError::Input(format!("{}: {e}", args.io.model.display())))?;
+    let missing = seen.iter().filter(|&&v| !v).count() as i64;
+    let mut out = Curves { fps: capture.fps, controls: names.clone(), ..Curves::default() };
+    let mut stats = Vec::with_capacity(rows.len());
+    let mut poses = Vec::with_capacity(rows.len());
+    let bar = reprise_stagekit::progress(rows.len() as u64, "retarget-apply");
+    for (clip, a, b) in capture.clip_runs() {
+        let run: Vec<usize> = (a..b).filter(|r| rows.contains(r)).collect();
+        if run.is_empty() {
+            continue;
+        }
+        let mut previous: Option<Vec<f64>> = None;
+        let mut played = Vec::with_capacity(run.len());
+        for &r in &run {
+            let started = Instant::now();
+            let m = mapper.map(capture.row(r), &seen, previous.as_deref().filter(|_| args.temporal));
+            let pose = space.decode(&m.y);
+            let ms = 1e3 * started.elapsed().as_secs_f64();
+            stats.push(MappedFrame {
+                clip: clip.clone(),
+                frame: capture.frame[r],
+                residual: m.residual,
+                variance: m.variance,
+                missing,
+                ms,
+                mesh_error: None,
+            });
+            played.push((pose.clone(), m.z.clone()));
+            poses.push(pose);
+            previous = Some(m.x);
+            bar.inc(1);
+        }
+        out.push_script(&clip, played.iter().map(|(p, z)| Frame { model: MODEL, controls: p, x: z, command: 0 }));
+    }
+    bar.finish_and_clear();
+
+    let mut baselines = Vec::new();
+    if let Some(truth) = &truth {
+        let errors = mesh_errors(&rig, &poses, truth)?;
+        for (st, e) in stats.iter_mut().zip(&errors) {
+            st.mesh_error = Some(*e);
+        }
+        for (name, predicted) in baseline_poses(&fitted, &model, &space, &capture, &rows, &seen, args.ridge)? {
+            let e = mesh_errors(&rig, &predicted, truth)?;
+            baselines.push((name, e.iter().sum::<f64>() / e.len() as f64));
+        }
+    }
+    curves::write(&args.io.curves, &out, &provenance)?;
+    write_frames(&args.io.frames, &stats, &provenance)?;
+    let summary =
+        Summary { frames: stats, baselines, rows: fitted.counts(), fit_seconds: s.fit.seconds, components: space.d() };
+    let md = report::markdown(&summary, &fitted.settings, args);
+    let marker = reprise_artifact::provenance::output_marker(WIRING.stage, provenance.pipeline.as_deref());
+    let md = format!("{md}\n<!-- {marker} -->\n");
+    reprise_artifact::table::write_atomic(&args.io.report, |f| {
+        use std::io::Write as _;
+        f.write_all(md.as_bytes()).map_err(|e| reprise_artifact::ArtifactError::io(&args.io.report, e))
+    })?;
+    Ok(Some(summary))
+}
+
+/// The known pose of every mapped capture frame, in the model's control order.
+///
+/// # Errors
+/// A control the table lacks, or a mapped frame it does not hold.
+fn known_poses(path: &std::path::Path, names: &[String], capture: &Positions, rows: &[usize]) -> StageResult<Vec<f64>> {
+    let t = Frames::read(path)?;
+    let columns: Vec<usize> = names
+        .iter()
+        .map(|c| {
+            t.controls.iter().position(|n| n == c).ok_or_else(|| {
+                StageError::Input(format!("{}: no column for the character's control `{c}`", path.display()))
+            })
+        })
+        .collect::<StageResult<_>>()?;
+    let index: std::collections::HashMap<(&str, i64), usize> =
+        (0..t.rows()).map(|r| ((t.clip[r].as_str(), t.frame[r]), r)).collect();
+    let mut out = Vec::with_capacity(rows.len() * names.len());
+    for &r in rows {
+        let k = index.get(&(capture.clip[r].as_str(), capture.frame[r])).ok_or_else(|| {
+            StageError::Input(format!(
+                "{}: holds no pose for the capture's clip `{}` frame {}",
+                path.display(),
+                capture.clip[r],
+                capture.frame[r]
+            ))
+        })?;
+        out.extend(columns.iter().map(|&c| t.row(*k)[c]));
+    }
+    Ok(out)
+}
+
+/// Per pose, the RMS vertex distance between the mesh of `poses[i]` and of the known pose.
+fn mesh_errors(
+    rig: &(Box<dyn reprise_rig::Rig>, reprise_rig::PoseLayout),
+    poses: &[Vec<f64>],
+    truth: &[f64],
+) -> StageResult<Vec<f64>> {
+    let c = truth.len() / poses.len().max(1);
+    let a = reprise_stagekit::rig::meshes(rig, poses)?;
+    let b = reprise_stagekit::rig::meshes(rig, &truth.chunks_exact(c).map(<[f64]>::to_vec).collect::<Vec<_>>())?;
+    let m = a.len() / poses.len().max(1);
+    Ok(a.chunks_exact(m).zip(b.chunks_exact(m)).map(|(a, b)| reprise_stagekit::rig::mesh_rmse(a, b)).collect())
+}
+
+/// Ridge regression and GPR fitted on the model's labelled pairs (normalised capture →
+/// normalised target coordinates), each frame's pose decoded. A missing marker is held at
+/// its mean over the training frames (neither regression can leave it out).
+fn baseline_poses(
+    fitted: &Retarget,
+    model: &Model,
+    space: &TargetSpace,
+    capture: &Positions,
+    rows: &[usize],
+    seen: &[bool],
+    alpha: f64,
+) -> StageResult<Vec<(String, Vec<Vec<f64>>)>> {
+    let (dx, dy, l) = (model.dx(), model.dy(), fitted.role.iter().filter(|&&r| r == Role::Labelled).count());
+    let (xl, yl) = (&model.x[..l * dx], &model.y[..l * dy]);
+    let err = |e: reprise_numerics::gplvm::GplvmError| StageError::Input(format!("a baseline's fit: {e}"));
+    let ridge = Ridge::fit(xl, dx, yl, dy, alpha).map_err(err)?;
+    let gp = gpr(xl, dx, yl, dy).map_err(err)?;
+    let inputs: Vec<Vec<f64>> = rows
+        .iter()
+        .map(|&r| {
+            let x = model.x_norm.apply(capture.row(r));
+            x.iter().zip(seen).map(|(&v, &s)| if s { v } else { 0.0 }).collect()
+        })
+        .collect();
+    let decode = |y: &[f64]| space.decode(&model.y_norm.invert(y));
+    let ridge_poses = inputs.iter().map(|x| decode(&ridge.predict(x))).collect();
+    let gpr_poses = inputs
+        .iter()
+        .map(|x| {
+            let mut y = vec![0.0; dy];
+            gp.mean(x, &mut y);
+            decode(&y)
+        })
+        .collect();
+    Ok(vec![("ridge".into(), ridge_poses), ("GPR".into(), gpr_poses)])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_missing_point_hides_its_three_values_and_an_unknown_one_is_refused() {
+        assert_eq!(seen_mask(&[4, 9], &[9]).unwrap(), vec![true, true, true, false, false, false]);
+        assert!(seen_mask(&[4, 9], &[5]).unwrap_err().to_string().contains("--missing 5"));
+        assert!(seen_mask(&[4, 9], &[4, 9]).unwrap_err().to_string().contains("every point"));
+    }
+}
