@@ -4,7 +4,7 @@
 use std::path::Path;
 
 /// (binary, the stage crate under `stages/` that implements it).
-const STAGES: [(&str, &str); 18] = [
+const STAGES: [(&str, &str); 19] = [
     ("reprise-ingest", "ingest"),
     ("reprise-label", "label"),
     ("reprise-scale", "scale"),
@@ -23,6 +23,7 @@ const STAGES: [(&str, &str); 18] = [
     ("reprise-retarget-fit", "retarget-fit"),
     ("reprise-retarget-apply", "retarget-apply"),
     ("reprise-retarget-oracle", "retarget-oracle"),
+    ("reprise-retarget-compare", "retarget-compare"),
 ];
 
 fn main() {

@@ -56,8 +56,15 @@ const GAME_EVENTS: [(&str, &str); 6] = [
 /// Stages of other jobs, left out of the pipeline `init` writes: inverse rig mapping makes
 /// curves from positions (docs/invrig.md) and retargeting makes them from a capture
 /// (docs/retarget.md); a new character's source already has curves.
-pub const OTHER_JOBS: [&str; 6] =
-    ["positions", "invrig-fit", "invrig-apply", "retarget-oracle", "retarget-fit", "retarget-apply"];
+pub const OTHER_JOBS: [&str; 7] = [
+    "positions",
+    "invrig-fit",
+    "invrig-apply",
+    "retarget-oracle",
+    "retarget-fit",
+    "retarget-apply",
+    "retarget-compare",
+];
 
 /// The pipeline file: a stage table for every stage the runner knows (`known`, in their
 /// order; `export-gltf` only for a glTF character; none of [`OTHER_JOBS`]), each with only what differs from its

@@ -52,4 +52,5 @@ stages![
     reprise_retarget_fit,
     reprise_retarget_apply,
     reprise_retarget_oracle,
+    reprise_retarget_compare,
 ];

@@ -11,6 +11,7 @@ use reprise_numerics::gplvm::{GplvmError, Hyper, LikelihoodConfig, MeanPredictor
 use reprise_numerics::lbfgs::LbfgsOptions;
 use reprise_numerics::optim::OptInfo;
 
+use crate::align::{align, denoise};
 use crate::lle;
 use crate::shared::{fit, initial_latents, predictor, SharedObjective, Space};
 use crate::source::{Noise, SourceGp};
@@ -68,16 +69,42 @@ pub struct TrainingSet<'a> {
     pub labelled: usize,
 }
 
+/// The prior over the latents.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Prior {
+    /// None: the likelihoods alone.
+    None,
+    /// $\tfrac12\lVert Z\rVert^2$ (a unit Gaussian per latent).
+    Gaussian,
+    /// The LLE prior of Eq. 5–8 (which includes the unit Gaussian, $L = M^\top M + I$).
+    Lle,
+}
+
+/// Where the latents start.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Init {
+    /// [`initial_latents`]: source principal coordinates, target-only rows at the nearest
+    /// labelled row.
+    Pca,
+    /// The paper's semi-supervised manifold alignment ([`align`]), the source's
+    /// neighbourhoods taken with the capture noise removed ([`denoise`]).
+    Alignment,
+}
+
 /// How a model is fitted.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settings {
     /// Latent dimension (the paper: 8); at most the source dimension and one less than the
     /// source rows.
     pub q: usize,
-    /// LLE neighbours (the paper: 8).
+    /// Neighbours of the LLE prior and of the alignment's graphs (the paper: 8).
     pub k: usize,
-    /// Whether the LLE prior is on.
-    pub lle: bool,
+    /// The prior over the latents.
+    pub prior: Prior,
+    /// Where the latents start.
+    pub init: Init,
+    /// The capture's noise $\sigma_c$, source units (the alignment's denoising; 0: none).
+    pub capture_noise: f64,
     /// L-BFGS iterations at most.
     pub max_iters: usize,
 }
@@ -136,8 +163,8 @@ impl Model {
         Space { data: &self.y, dim: self.dy(), rows: (0..self.labelled).chain(self.source_rows()..self.n()).collect() }
     }
 
-    /// Fits a model: normalisation, the initial latents ([`initial_latents`]), the LLE
-    /// prior when asked, and L-BFGS on the shared objective from [`START_HYPER`].
+    /// Fits a model: normalisation, the initial latents, the prior, and L-BFGS on the
+    /// shared objective from [`START_HYPER`].
     ///
     /// # Errors
     /// [`GplvmError::Shape`] for fewer than two labelled pairs, rows that do not match the
@@ -163,17 +190,26 @@ impl Model {
         let q = settings.q.min(dx).min(nx - 1).max(1);
         let source = Space { data: &x, dim: dx, rows: (0..nx).collect() };
         let target = Space { data: &y, dim: dy, rows: (0..l).chain(nx..n).collect() };
-        let prior = if settings.lle {
-            let k = settings.k.min(nx - 1).min(ny - 1).max(1);
-            let wx = lle::weights(&x, dx, k).map_err(|e| GplvmError::Shape(format!("the source's LLE: {e}")))?;
-            let wy = lle::weights(&y, dy, k).map_err(|e| GplvmError::Shape(format!("the target's LLE: {e}")))?;
-            Some(lle::prior_matrix(&[(&wx, &source.rows), (&wy, &target.rows)], n))
-        } else {
-            None
+        let k = settings.k.min(nx - 1).min(ny - 1).max(1);
+        let prior = match settings.prior {
+            Prior::None => None,
+            Prior::Gaussian => Some(faer::Mat::<f64>::identity(n, n)),
+            Prior::Lle => {
+                let wx = lle::weights(&x, dx, k).map_err(|e| GplvmError::Shape(format!("the source's LLE: {e}")))?;
+                let wy = lle::weights(&y, dy, k).map_err(|e| GplvmError::Shape(format!("the target's LLE: {e}")))?;
+                Some(lle::prior_matrix(&[(&wx, &source.rows), (&wy, &target.rows)], n))
+            }
         };
         let mut obj =
             SharedObjective::new(&[source.clone(), target.clone()], n, q, prior, LikelihoodConfig::default())?;
-        let mut start = initial_latents(&source, &target, n, q)?;
+        let mut start = match settings.init {
+            Init::Pca => initial_latents(&source, &target, n, q)?,
+            Init::Alignment => {
+                let sigma = settings.capture_noise / x_norm.scale;
+                let clean = if sigma > 0.0 { denoise(&x, dx, sigma * sigma)? } else { x.clone() };
+                align(&[Space { data: &clean, ..source.clone() }, target.clone()], n, q, k)?
+            }
+        };
         let log = START_HYPER.to_log();
         start.extend(log.iter().chain(log.iter()));
         let (p, info) =
@@ -205,6 +241,16 @@ pub fn step_rms(v: &[f64], d: usize, runs: &[std::ops::Range<usize>]) -> f64 {
     } else {
         (sum / count as f64).sqrt()
     }
+}
+
+/// The temporal term's $\sigma_t$ from the capture's RMS step `step` between consecutive
+/// frames and its noise $\sigma_c$. A step of noisy observations has variance
+/// $s^2 = \delta^2 + 2\sigma_c^2$ ($\delta$ the true motion's step); the term compares a
+/// frame with the previous frame's *estimate* $x^*_{k-1}$, whose own error is at most
+/// $\sigma_c^2$, so $\sigma_t^2 = \delta^2 + \sigma_c^2 = s^2 - \sigma_c^2$, kept at least
+/// $s^2/100$ (a capture whose steps are all noise still moves).
+pub fn temporal_noise(step: f64, capture: f64) -> f64 {
+    (step * step - capture * capture).max(1e-2 * step * step).sqrt()
 }
 
 /// One mapped frame.
@@ -309,7 +355,13 @@ mod tests {
         // Two runs of a 1-D ramp with step 2; the jump between runs is not a step.
         let v = [0.0, 2.0, 4.0, 100.0, 102.0];
         assert!((step_rms(&v, 1, &[0..3, 3..5]) - 2.0).abs() < 1e-12);
-        assert_eq!(step_rms(&v, 1, &[0..1]), 0.0);
+        assert_eq!(step_rms(&v, 1, std::slice::from_ref(&(0..1))), 0.0);
+    }
+
+    #[test]
+    fn the_temporal_noise_takes_the_capture_noise_out_of_the_step() {
+        assert!((temporal_noise(5.0, 3.0) - 4.0).abs() < 1e-12);
+        assert!((temporal_noise(1.0, 1.0) - 0.1).abs() < 1e-12, "all noise: kept at a tenth of the step");
     }
 
     #[test]
@@ -328,7 +380,8 @@ mod tests {
         let xs = [pick(&x, 4, &labelled), pick(&x, 4, &src)].concat();
         let ys = [pick(&y, 2, &labelled), pick(&y, 2, &tgt)].concat();
         let set = TrainingSet { x: &xs, dx: 4, y: &ys, dy: 2, labelled: labelled.len() };
-        let settings = Settings { q: 2, k: 4, lle: true, max_iters: 300 };
+        let settings =
+            Settings { q: 2, k: 4, prior: Prior::Lle, init: Init::Alignment, capture_noise: 0.0, max_iters: 300 };
         let (model, info) = Model::fit(&set, &settings).unwrap();
         assert!(info.value.is_finite());
         assert_eq!(model.n(), 5 + 18 + 17);
@@ -361,7 +414,7 @@ mod tests {
     fn too_few_labels_and_bad_shapes_are_errors() {
         let (x, y) = spaces(&[0.0, 0.5, 1.0]);
         let set = TrainingSet { x: &x, dx: 4, y: &y, dy: 2, labelled: 1 };
-        let s = Settings { q: 2, k: 2, lle: false, max_iters: 10 };
+        let s = Settings { q: 2, k: 2, prior: Prior::None, init: Init::Pca, capture_noise: 0.0, max_iters: 10 };
         assert!(Model::fit(&set, &s).unwrap_err().to_string().contains("at least 2"));
         let set = TrainingSet { x: &x[..7], dx: 4, y: &y, dy: 2, labelled: 2 };
         assert!(Model::fit(&set, &s).is_err());

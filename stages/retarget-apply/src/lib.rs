@@ -36,7 +36,7 @@ reprise_stagekit::stage_io! {
         /// Input: the fitted model.
         model: required "retarget.parquet",
         /// Input: the capture to map, marker positions per frame.
-        capture: required "capture.parquet",
+        capture: required "positions.parquet",
         /// Input: the character's controls table (names its rig).
         controls: required "controls.parquet",
         /// Input (optional): the character's known poses for the capture's frames, named by
@@ -81,6 +81,10 @@ pub struct Args {
     pub max_frames: usize,
 }
 
+/// The report's name for the known poses projected onto the target space and back: the
+/// least error any method working in that space can reach.
+pub const FLOOR: &str = "the known pose, projected onto the target space";
+
 /// The model name written in the curves' `model` column.
 pub const MODEL: &str = "retarget";
 
@@ -89,7 +93,8 @@ pub const MODEL: &str = "retarget";
 pub struct Summary {
     /// Per frame.
     pub frames: Vec<MappedFrame>,
-    /// Mean mesh error of each baseline (ridge, GPR) where the poses are known.
+    /// Mean mesh error of the target space's floor ([`FLOOR`]) and of each baseline
+    /// (ridge, GPR), where the poses are known.
     pub baselines: Vec<(String, f64)>,
     /// Labelled pairs, source frames, target poses of the model.
     pub rows: (usize, usize, usize),
@@ -214,7 +219,11 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         for (st, e) in stats.iter_mut().zip(&errors) {
             st.mesh_error = Some(*e);
         }
-        for (name, predicted) in baseline_poses(&fitted, &model, &space, &capture, &rows, &seen, args.ridge)? {
+        let c = names.len();
+        let floor: Vec<Vec<f64>> = truth.chunks_exact(c).map(|p| space.decode(&space.encode(p))).collect();
+        let mut others = vec![(FLOOR.to_string(), floor)];
+        others.extend(baseline_poses(&fitted, &model, &space, &capture, &rows, &seen, args.ridge)?);
+        for (name, predicted) in others {
             let e = mesh_errors(&rig, &predicted, truth)?;
             baselines.push((name, e.iter().sum::<f64>() / e.len() as f64));
         }

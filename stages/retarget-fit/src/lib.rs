@@ -10,8 +10,11 @@
 //!   frame, holding the character's pose for it), `--source-frames` other capture frames
 //!   spread evenly over the capture, and `--target-poses` corpus frames spread evenly over
 //!   the corpus.
+//! - **Start**: the paper's semi-supervised manifold alignment (Ham et al.), the capture's
+//!   neighbourhoods taken with its noise removed.
 //! - **Noise**: $\sigma_c$ is `--capture-noise` (the capture system's, capture units);
-//!   $\sigma_t$ is the capture's RMS step between consecutive frames.
+//!   $\sigma_t$ is the capture's RMS step between consecutive frames less the part the
+//!   noise explains ([`reprise_retarget::model::temporal_noise`]).
 //!
 //! The model ([`reprise_artifact::retarget`]) holds everything `retarget-apply` needs
 //! besides the capture to map.
@@ -23,7 +26,7 @@ use clap::Parser;
 use reprise_artifact::frames::Frames;
 use reprise_artifact::positions::Positions;
 use reprise_artifact::retarget::{FitInfo, Normalisation, Retarget, Role, Settings, TargetSpace as SpaceMeta};
-use reprise_retarget::model::{step_rms, Model, Settings as FitSettings, TrainingSet};
+use reprise_retarget::model::{step_rms, temporal_noise, Init, Model, Prior, Settings as FitSettings, TrainingSet};
 use reprise_retarget::target::TargetSpace;
 use reprise_stagekit::{StageError, StageResult};
 use serde::Serialize;
@@ -34,7 +37,7 @@ reprise_stagekit::stage_io! {
     derived: [],
     inputs {
         /// Input: the capture, marker positions per frame.
-        capture: required "capture.parquet",
+        capture: required "positions.parquet",
         /// Input: the labelled pairs: the character's pose (a frame table on its controls)
         /// for some capture frames, named by the capture's clip and frame.
         pairs: required "pairs.parquet",
@@ -63,7 +66,8 @@ pub struct Args {
     /// Latent dimension (the paper: 8).
     #[arg(long, default_value_t = 8)]
     pub q: usize,
-    /// LLE neighbours of the prior (the paper: 8); 0 turns the prior off.
+    /// LLE neighbours of the prior and of the start's graphs (the paper: 8); 0 turns the
+    /// LLE prior off (a unit Gaussian prior remains).
     #[arg(long, default_value_t = 8)]
     pub lle_neighbours: usize,
     /// Unlabelled capture frames, spread evenly over the capture.
@@ -72,15 +76,20 @@ pub struct Args {
     /// Unlabelled character poses, spread evenly over the corpus.
     #[arg(long, default_value_t = 100)]
     pub target_poses: usize,
-    /// Share of the scaled poses' variance the target space keeps.
-    #[arg(long, default_value_t = 0.99)]
+    /// Share of the scaled poses' variance the target space keeps. The default keeps every
+    /// component: the target GP's mean is a combination of its training poses, so a
+    /// truncation can only lose what it could have predicted.
+    #[arg(long, default_value_t = 1.0)]
     pub variance: f64,
     /// Most target-space components.
-    #[arg(long, default_value_t = 32)]
+    #[arg(long, default_value_t = 256)]
     pub max_components: usize,
     /// L-BFGS iterations at most.
     #[arg(long, default_value_t = 500)]
     pub iterations: usize,
+    /// Where the latents start: `alignment` (the paper's) or `pca`.
+    #[arg(long, default_value = "alignment")]
+    pub init: String,
     /// Capture clips to use: glob patterns (comma-separated; none: every clip).
     #[arg(long, value_delimiter = ',')]
     pub clips: Vec<String>,
@@ -109,7 +118,7 @@ pub struct Summary {
 }
 
 impl Args {
-    fn validate(&self) -> StageResult<f64> {
+    fn validate(&self) -> StageResult<(f64, Init)> {
         let noise = self.capture_noise.ok_or_else(|| {
             StageError::Config(
                 "--capture-noise is required: the capture system's noise, a standard deviation in capture units".into(),
@@ -127,7 +136,12 @@ impl Args {
         if self.fps.is_some_and(|f| !(f.is_finite() && f > 0.0)) {
             return Err(StageError::Config("--fps must be finite and positive".into()));
         }
-        Ok(noise)
+        let init = match self.init.as_str() {
+            "alignment" => Init::Alignment,
+            "pca" => Init::Pca,
+            other => return Err(StageError::Config(format!("--init `{other}`: alignment or pca"))),
+        };
+        Ok((noise, init))
     }
 }
 
@@ -191,7 +205,7 @@ pub fn match_pairs(
 
 /// Runs the stage (or only validates, with `--check`).
 pub fn run(args: &Args) -> StageResult<Option<Summary>> {
-    let capture_noise = args.validate()?;
+    let (capture_noise, init) = args.validate()?;
     let clips = reprise_stagekit::clips::matcher(&args.clips, "--clips")?;
     let corpus_clips = reprise_stagekit::clips::matcher(&args.corpus_clips, "--corpus-clips")?;
     if args.io.check {
@@ -252,8 +266,14 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     let x: Vec<f64> = labelled.iter().chain(&source_only).flat_map(|&r| capture.row(r).iter().copied()).collect();
     let y = [encode(&label_poses), encode(&corpus_poses)].concat();
     let set = TrainingSet { x: &x, dx: capture.width(), y: &y, dy: space.d(), labelled: labelled.len() };
-    let settings =
-        FitSettings { q: args.q, k: args.lle_neighbours, lle: args.lle_neighbours > 0, max_iters: args.iterations };
+    let settings = FitSettings {
+        q: args.q,
+        k: args.lle_neighbours.max(1),
+        prior: if args.lle_neighbours > 0 { Prior::Lle } else { Prior::Gaussian },
+        init,
+        capture_noise,
+        max_iters: args.iterations,
+    };
     let started = Instant::now();
     let (model, info) =
         Model::fit(&set, &settings).map_err(|e| StageError::Input(format!("the shared GPLVM's fit: {e}")))?;
@@ -269,7 +289,7 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         .filter(|(clip, _, _)| clips.as_ref().is_none_or(|m| m.is_match(clip)))
         .map(|(_, a, b)| a..b)
         .collect();
-    let temporal_noise = step_rms(&capture.values, capture.width(), &runs).max(capture_noise);
+    let sigma_t = temporal_noise(step_rms(&capture.values, capture.width(), &runs), capture_noise);
 
     let rows = |idx: &[usize], f: &dyn Fn(usize) -> (String, i64)| idx.iter().map(|&r| f(r)).collect::<Vec<_>>();
     let cap = |r: usize| (capture.clip[r].clone(), capture.frame[r]);
@@ -306,7 +326,7 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
                 explained: space.explained,
             },
             capture_noise,
-            temporal_noise,
+            temporal_noise: sigma_t,
             lle_neighbours: args.lle_neighbours,
             fit: fit.clone(),
             fps: capture.fps,

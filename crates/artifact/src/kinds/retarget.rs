@@ -23,6 +23,16 @@
 //! | `missing` | Int64 | capture values treated as unseen |
 //! | `ms` | Float64 | milliseconds the frame's solve took |
 //! | `mesh_error` | Float64, null | RMS vertex distance to the known target pose, the rig's length unit |
+//!
+//! `retarget_comparison`: protocol A, one row per (label count, method).
+//!
+//! | column | type | meaning |
+//! |---|---|---|
+//! | `labels` | Int64 | labelled pairs |
+//! | `method` | Utf8 | the method's name |
+//! | `rms` | Float64 | mean over draws of the RMS target error, target units |
+//! | `sd` | Float64 | its standard deviation over draws |
+//! | `draws` | Int64 | random draws of the labelled frames |
 
 use std::path::Path;
 
@@ -36,6 +46,8 @@ use crate::table::{Columns, Kind, Table};
 pub const RETARGET: Kind = Kind { name: "retarget", version: 1 };
 /// Kind of the per-frame table of a mapping.
 pub const RETARGET_FRAMES: Kind = Kind { name: "retarget_frames", version: 1 };
+/// Kind of protocol A's table.
+pub const RETARGET_COMPARISON: Kind = Kind { name: "retarget_comparison", version: 1 };
 /// Metadata key: the model's settings.
 pub const KEY_RETARGET: &str = "reprise.retarget";
 /// Most latent rows, capture values or target coordinates a model may hold.
@@ -301,6 +313,43 @@ pub fn read_frames(path: &Path) -> Result<Vec<MappedFrame>> {
         .collect())
 }
 
+/// One method at one label count of protocol A.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Comparison {
+    /// Labelled pairs.
+    pub labels: i64,
+    /// The method's name.
+    pub method: String,
+    /// Mean over draws of the RMS target error.
+    pub rms: f64,
+    /// Standard deviation over draws.
+    pub sd: f64,
+    /// Draws.
+    pub draws: i64,
+}
+
+/// Writes protocol A's table atomically.
+pub fn write_comparison(path: &Path, rows: &[Comparison], provenance: &Provenance) -> Result<()> {
+    let method: Vec<&str> = rows.iter().map(|r| r.method.as_str()).collect();
+    let cols = Columns::new()
+        .i64("labels", rows.iter().map(|r| r.labels).collect())
+        .str("method", &method)
+        .f64("rms", rows.iter().map(|r| r.rms).collect())
+        .f64("sd", rows.iter().map(|r| r.sd).collect())
+        .i64("draws", rows.iter().map(|r| r.draws).collect());
+    crate::table::write(path, RETARGET_COMPARISON, cols, provenance, &[])
+}
+
+/// Reads protocol A's table.
+pub fn read_comparison(path: &Path) -> Result<Vec<Comparison>> {
+    let t = Table::read(path, RETARGET_COMPARISON)?;
+    let (labels, method, rms, sd, draws) =
+        (t.i64("labels")?, t.strings("method")?, t.f64("rms")?, t.f64("sd")?, t.i64("draws")?);
+    Ok((0..t.rows())
+        .map(|r| Comparison { labels: labels[r], method: method[r].clone(), rms: rms[r], sd: sd[r], draws: draws[r] })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -358,6 +407,10 @@ mod tests {
         let fpath = dir.path().join("f.parquet");
         write_frames(&fpath, &rows, &Provenance::new("test", "0", serde_json::json!({}))).unwrap();
         assert_eq!(read_frames(&fpath).unwrap(), rows);
+        let table = vec![Comparison { labels: 5, method: "GPR".into(), rms: 0.07, sd: 0.01, draws: 20 }];
+        let cpath = dir.path().join("c.parquet");
+        write_comparison(&cpath, &table, &Provenance::new("test", "0", serde_json::json!({}))).unwrap();
+        assert_eq!(read_comparison(&cpath).unwrap(), table);
     }
 
     #[test]
