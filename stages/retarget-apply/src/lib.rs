@@ -48,8 +48,13 @@ reprise_stagekit::stage_io! {
         curves: artifact "curves.parquet",
         /// Output: per frame, the residual, variance, time and mesh error.
         frames: artifact "retarget_frames.parquet",
+        /// Output: the character performing the capture (and the known poses beside it),
+        /// baked to morph targets, as a glTF binary.
+        glb: artifact "retarget.glb",
         /// Output: the Markdown report.
         report: report "retarget.md",
+        /// Output: the player: the same tracks in a standalone page.
+        player: report "retarget.html",
     }
 }
 
@@ -70,6 +75,10 @@ pub struct Args {
     /// The temporal term (off: every frame is solved alone).
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
     pub temporal: bool,
+    /// Most morph targets of the baked glTF and player (their RMS vertex error is in the
+    /// report).
+    #[arg(long, default_value_t = 48)]
+    pub morph_targets: usize,
     /// Ridge penalty of the ridge baseline, in normalised units.
     #[arg(long, default_value_t = 1e-3)]
     pub ridge: f64,
@@ -102,6 +111,8 @@ pub struct Summary {
     pub fit_seconds: f64,
     /// Target-space components.
     pub components: usize,
+    /// The baked animation: morph targets and their RMS vertex error (rig length unit).
+    pub baked: (usize, f64),
 }
 
 /// The model of an artifact.
@@ -214,32 +225,70 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     bar.finish_and_clear();
 
     let mut baselines = Vec::new();
+    let mut tracks = vec![reprise_stagekit::rig::meshes(&rig, &poses)?];
     if let Some(truth) = &truth {
-        let errors = mesh_errors(&rig, &poses, truth)?;
+        let c = names.len();
+        tracks.push(reprise_stagekit::rig::meshes(
+            &rig,
+            &truth.chunks_exact(c).map(<[f64]>::to_vec).collect::<Vec<_>>(),
+        )?);
+        let errors = mesh_errors(&tracks[0], &tracks[1], rig.0.vertex_count());
         for (st, e) in stats.iter_mut().zip(&errors) {
             st.mesh_error = Some(*e);
         }
-        let c = names.len();
         let floor: Vec<Vec<f64>> = truth.chunks_exact(c).map(|p| space.decode(&space.encode(p))).collect();
         let mut others = vec![(FLOOR.to_string(), floor)];
         others.extend(baseline_poses(&fitted, &model, &space, &capture, &rows, &seen, args.ridge)?);
         for (name, predicted) in others {
-            let e = mesh_errors(&rig, &predicted, truth)?;
+            let e = mesh_errors(&reprise_stagekit::rig::meshes(&rig, &predicted)?, &tracks[1], rig.0.vertex_count());
             baselines.push((name, e.iter().sum::<f64>() / e.len() as f64));
         }
     }
     curves::write(&args.io.curves, &out, &provenance)?;
     write_frames(&args.io.frames, &stats, &provenance)?;
-    let summary =
-        Summary { frames: stats, baselines, rows: fitted.counts(), fit_seconds: s.fit.seconds, components: space.d() };
+    let track_names: Vec<String> =
+        ["retargeted", "known (the --truth poses)"].iter().take(tracks.len()).map(|s| s.to_string()).collect();
+    let refs: Vec<&[f64]> = tracks.iter().map(Vec::as_slice).collect();
+    let baked = reprise_mesh_animation::bake(&refs, rig.0.vertex_count(), args.morph_targets)
+        .map_err(|e| StageError::Input(format!("the meshes of the curves: {e}")))?;
+    let glb = reprise_mesh_animation::glb::write(&baked, rig.0.triangles(), &track_names, capture.fps, "retargeted");
+    write_bytes(&args.io.glb, &glb)?;
+    let summary = Summary {
+        frames: stats,
+        baselines,
+        rows: fitted.counts(),
+        fit_seconds: s.fit.seconds,
+        components: space.d(),
+        baked: (baked.k(), baked.rms_error),
+    };
     let md = report::markdown(&summary, &fitted.settings, args);
     let marker = reprise_artifact::provenance::output_marker(WIRING.stage, provenance.pipeline.as_deref());
-    let md = format!("{md}\n<!-- {marker} -->\n");
-    reprise_artifact::table::write_atomic(&args.io.report, |f| {
-        use std::io::Write as _;
-        f.write_all(md.as_bytes()).map_err(|e| reprise_artifact::ArtifactError::io(&args.io.report, e))
-    })?;
+    write_bytes(&args.io.report, format!("{md}\n<!-- {marker} -->\n").as_bytes())?;
+    let errors: Vec<f64> = summary.frames.iter().filter_map(|f| f.mesh_error).collect();
+    let readouts = if errors.is_empty() {
+        vec![]
+    } else {
+        vec![reprise_mesh_animation::player::Readout { label: "mesh error".into(), values: errors }]
+    };
+    let page = reprise_mesh_animation::player::html(&reprise_mesh_animation::player::Page {
+        title: "The capture, retargeted onto the character",
+        caption: &report::player_caption(&summary, &track_names),
+        baked: &baked,
+        triangles: rig.0.triangles(),
+        names: &track_names,
+        fps: capture.fps,
+        readouts: &readouts,
+    });
+    write_bytes(&args.io.player, page.as_bytes())?;
     Ok(Some(summary))
+}
+
+fn write_bytes(path: &std::path::Path, bytes: &[u8]) -> StageResult<()> {
+    reprise_artifact::table::write_atomic(path, |f| {
+        use std::io::Write as _;
+        f.write_all(bytes).map_err(|e| reprise_artifact::ArtifactError::io(path, e))
+    })?;
+    Ok(())
 }
 
 /// The known pose of every mapped capture frame, in the model's control order.
@@ -273,17 +322,10 @@ fn known_poses(path: &std::path::Path, names: &[String], capture: &Positions, ro
     Ok(out)
 }
 
-/// Per pose, the RMS vertex distance between the mesh of `poses[i]` and of the known pose.
-fn mesh_errors(
-    rig: &(Box<dyn reprise_rig::Rig>, reprise_rig::PoseLayout),
-    poses: &[Vec<f64>],
-    truth: &[f64],
-) -> StageResult<Vec<f64>> {
-    let c = truth.len() / poses.len().max(1);
-    let a = reprise_stagekit::rig::meshes(rig, poses)?;
-    let b = reprise_stagekit::rig::meshes(rig, &truth.chunks_exact(c).map(<[f64]>::to_vec).collect::<Vec<_>>())?;
-    let m = a.len() / poses.len().max(1);
-    Ok(a.chunks_exact(m).zip(b.chunks_exact(m)).map(|(a, b)| reprise_stagekit::rig::mesh_rmse(a, b)).collect())
+/// Per pose, the RMS vertex distance between two batches of meshes of `vertices` vertices.
+fn mesh_errors(a: &[f64], b: &[f64], vertices: usize) -> Vec<f64> {
+    let m = 3 * vertices;
+    a.chunks_exact(m).zip(b.chunks_exact(m)).map(|(a, b)| reprise_stagekit::rig::mesh_rmse(a, b)).collect()
 }
 
 /// Ridge regression and GPR fitted on the model's labelled pairs (normalised capture →
