@@ -7,6 +7,7 @@
 //! - [`lle`]: the locally-linear-embedding prior over the shared latents (Eq. 5–8).
 //! - [`model`]: a fitted model over a training set, and [`model::Mapper`], which maps
 //!   one frame at a time.
+//! - [`pose`]: a full pose from a few fixed controls (the paper's Fig. 8).
 //! - [`protocol`]: the paper's comparison on a blocked split: RMS against label count for
 //!   every method over random draws of the labelled frames.
 //! - [`shared`]: the shared GPLVM over index sets (Eq. 1–5): objective and gradient, an
@@ -22,6 +23,7 @@ pub mod align;
 pub mod baselines;
 pub mod lle;
 pub mod model;
+pub mod pose;
 pub mod protocol;
 pub mod shared;
 pub mod source;

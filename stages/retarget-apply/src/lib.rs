@@ -79,6 +79,14 @@ pub struct Args {
     /// report).
     #[arg(long, default_value_t = 48)]
     pub morph_targets: usize,
+    /// A pose to complete from a few fixed controls (the paper's Fig. 8), as
+    /// `control=value,control=value`; repeat for more. Each becomes a frame of the script
+    /// `posed` in the curves.
+    #[arg(long)]
+    pub pose: Vec<String>,
+    /// How closely a completed pose holds its fixed controls, mesh length.
+    #[arg(long, default_value_t = 1e-3)]
+    pub pose_tolerance: f64,
     /// Ridge penalty of the ridge baseline, in normalised units.
     #[arg(long, default_value_t = 1e-3)]
     pub ridge: f64,
@@ -93,6 +101,43 @@ pub struct Args {
 /// The report's name for the known poses projected onto the target space and back: the
 /// least error any method working in that space can reach.
 pub const FLOOR: &str = "the known pose, projected onto the target space";
+
+/// The script of the completed poses.
+pub const POSED: &str = "posed";
+
+/// Parses `--pose` values into (control index, value) lists over `names`.
+///
+/// # Errors
+/// A term that is not `control=value`, an unknown control, a value that is not a finite
+/// number, or a control named twice.
+pub fn parse_poses(poses: &[String], names: &[String]) -> StageResult<Vec<Vec<(usize, f64)>>> {
+    poses
+        .iter()
+        .map(|p| {
+            let mut out: Vec<(usize, f64)> = Vec::new();
+            for term in p.split(',').map(str::trim).filter(|t| !t.is_empty()) {
+                let bad = |why: &str| StageError::Config(format!("--pose `{p}`: `{term}` {why}"));
+                let (name, value) = term.split_once('=').ok_or_else(|| bad("is not control=value"))?;
+                let j =
+                    names.iter().position(|n| n == name.trim()).ok_or_else(|| bad("names no control of the model"))?;
+                let v: f64 = value
+                    .trim()
+                    .parse()
+                    .ok()
+                    .filter(|v: &f64| v.is_finite())
+                    .ok_or_else(|| bad("has no finite value"))?;
+                if out.iter().any(|&(k, _)| k == j) {
+                    return Err(bad("names a control twice"));
+                }
+                out.push((j, v));
+            }
+            if out.is_empty() {
+                return Err(StageError::Config(format!("--pose `{p}` fixes no control")));
+            }
+            Ok(out)
+        })
+        .collect()
+}
 
 /// The model name written in the curves' `model` column.
 pub const MODEL: &str = "retarget";
@@ -113,6 +158,8 @@ pub struct Summary {
     pub components: usize,
     /// The baked animation: morph targets and their RMS vertex error (rig length unit).
     pub baked: (usize, f64),
+    /// Each completed pose: its fixed controls and how closely they are held (mesh length).
+    pub posed: Vec<(Vec<(usize, f64)>, f64)>,
 }
 
 /// The model of an artifact.
@@ -156,8 +203,9 @@ pub fn seen_mask(points: &[i64], missing: &[i64]) -> StageResult<Vec<bool>> {
 /// Runs the stage (or only validates, with `--check`).
 pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     let clips = reprise_stagekit::clips::matcher(&args.clips, "--clips")?;
-    if args.fps.is_some_and(|f| !(f.is_finite() && f > 0.0)) || !(args.ridge.is_finite() && args.ridge > 0.0) {
-        return Err(StageError::Config("--fps and --ridge must be finite and positive".into()));
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if args.fps.is_some_and(|f| !positive(f)) || !positive(args.ridge) || !positive(args.pose_tolerance) {
+        return Err(StageError::Config("--fps, --ridge and --pose-tolerance must be finite and positive".into()));
     }
     if args.io.check {
         return Ok(None);
@@ -182,6 +230,7 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     let seen = seen_mask(&capture.points, &args.missing)?;
     let controls = Controls::read(&args.io.controls)?;
     let names = &fitted.settings.controls;
+    let fixed = parse_poses(&args.pose, names)?;
     let rig = reprise_stagekit::rig::open_rig(&controls, names)?;
     let truth = args.io.truth.as_deref().map(|p| known_poses(p, names, &capture, &rows)).transpose()?;
 
@@ -223,6 +272,8 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         out.push_script(&clip, played.iter().map(|(p, z)| Frame { model: MODEL, controls: p, x: z, command: 0 }));
     }
     bar.finish_and_clear();
+    let posed = complete_poses(&model, &space, &fixed, args.pose_tolerance)?;
+    out.push_script(POSED, posed.iter().map(|p| Frame { model: MODEL, controls: &p.pose, x: &p.z, command: 0 }));
 
     let mut baselines = Vec::new();
     let mut tracks = vec![reprise_stagekit::rig::meshes(&rig, &poses)?];
@@ -260,6 +311,7 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         fit_seconds: s.fit.seconds,
         components: space.d(),
         baked: (baked.k(), baked.rms_error),
+        posed: fixed.iter().zip(&posed).map(|(f, p)| (f.clone(), p.residual)).collect(),
     };
     let md = report::markdown(&summary, &fitted.settings, args);
     let marker = reprise_artifact::provenance::output_marker(WIRING.stage, provenance.pipeline.as_deref());
@@ -281,6 +333,21 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     });
     write_bytes(&args.io.player, page.as_bytes())?;
     Ok(Some(summary))
+}
+
+/// Completes each list of fixed controls (the paper's Fig. 8).
+fn complete_poses(
+    model: &Model,
+    space: &TargetSpace,
+    fixed: &[Vec<(usize, f64)>],
+    tolerance: f64,
+) -> StageResult<Vec<reprise_retarget::pose::Posed>> {
+    if fixed.is_empty() {
+        return Ok(Vec::new());
+    }
+    let poser = reprise_retarget::pose::Poser::new(model, space)
+        .map_err(|e| StageError::Input(format!("the model's target GP: {e}")))?;
+    fixed.iter().map(|f| poser.pose(f, tolerance).map_err(|e| StageError::Config(format!("--pose: {e}")))).collect()
 }
 
 fn write_bytes(path: &std::path::Path, bytes: &[u8]) -> StageResult<()> {
@@ -368,6 +435,19 @@ fn baseline_poses(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn poses_are_parsed_by_control_name_and_bad_ones_are_named() {
+        let names: Vec<String> = ["jaw_open", "smile_L"].map(String::from).to_vec();
+        let p = parse_poses(&["jaw_open=30, smile_L=0.5".into()], &names).unwrap();
+        assert_eq!(p, vec![vec![(0, 30.0), (1, 0.5)]]);
+        let err = |s: &str| parse_poses(&[s.into()], &names).unwrap_err().to_string();
+        assert!(err("nose=1").contains("names no control"));
+        assert!(err("jaw_open").contains("control=value"));
+        assert!(err("jaw_open=NaN").contains("finite"));
+        assert!(err("jaw_open=1,jaw_open=2").contains("twice"));
+        assert!(err(" , ").contains("fixes no control"));
+    }
 
     #[test]
     fn a_missing_point_hides_its_three_values_and_an_unknown_one_is_refused() {

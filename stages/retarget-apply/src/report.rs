@@ -76,6 +76,22 @@ pub fn markdown(s: &Summary, settings: &Settings, args: &Args) -> String {
          unit).\n",
         s.baked.0, s.baked.1
     );
+    if !s.posed.is_empty() {
+        let _ = writeln!(
+            md,
+            "## Poses completed from fixed controls\n\nEach `--pose` fixes a few controls; the model fills in \
+             the rest from its training poses (the paper's Fig. 8). They are the script `posed` of the curves.\n"
+        );
+        let _ = writeln!(md, "| pose | fixed controls | held within (mesh length) |\n|---|---|---|");
+        for (i, (fixed, residual)) in s.posed.iter().enumerate() {
+            let list: Vec<String> = fixed
+                .iter()
+                .map(|&(j, v)| format!("`{}` = {v}", settings.controls.get(j).map_or("?", |n| n)))
+                .collect();
+            let _ = writeln!(md, "| {i} | {} | {residual:.2e} |", list.join(", "));
+        }
+        let _ = writeln!(md);
+    }
     let errors: Vec<f64> = f.iter().filter_map(|r| r.mesh_error).collect();
     if !errors.is_empty() {
         let ours = mean(errors.iter().copied());
