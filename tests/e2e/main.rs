@@ -19,6 +19,7 @@ mod pipeline_errors;
 mod provenance_checks;
 mod python_readers;
 mod replay;
+mod retarget;
 mod robot_pipeline;
 mod scale_pca;
 mod slurm;
