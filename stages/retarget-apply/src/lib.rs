@@ -158,6 +158,9 @@ pub struct Summary {
     pub components: usize,
     /// The baked animation: morph targets and their RMS vertex error (rig length unit).
     pub baked: (usize, f64),
+    /// Milliseconds of one rig evaluation (the mean over the curves' frames, in batches):
+    /// the reference the mapping's time is read against.
+    pub eval_ms: f64,
     /// Each completed pose: its fixed controls and how closely they are held (mesh length).
     pub posed: Vec<(Vec<(usize, f64)>, f64)>,
 }
@@ -276,7 +279,9 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     out.push_script(POSED, posed.iter().map(|p| Frame { model: MODEL, controls: &p.pose, x: &p.z, command: 0 }));
 
     let mut baselines = Vec::new();
+    let started = Instant::now();
     let mut tracks = vec![reprise_stagekit::rig::meshes(&rig, &poses)?];
+    let eval_ms = 1e3 * started.elapsed().as_secs_f64() / poses.len().max(1) as f64;
     if let Some(truth) = &truth {
         let c = names.len();
         tracks.push(reprise_stagekit::rig::meshes(
@@ -311,6 +316,7 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         fit_seconds: s.fit.seconds,
         components: space.d(),
         baked: (baked.k(), baked.rms_error),
+        eval_ms,
         posed: fixed.iter().zip(&posed).map(|(f, p)| (f.clone(), p.residual)).collect(),
     };
     let md = report::markdown(&summary, &fitted.settings, args);
