@@ -2,7 +2,7 @@
 //! controls, a blendshape face): every frame's vertices, baked to a mean mesh plus a few
 //! morph targets, with per-frame weights.
 //!
-//! - [`bake`]: the morph targets as principal components of the frames' vertex offsets,
+//! - [`mod@bake`]: the morph targets as principal components of the frames' vertex offsets,
 //!   shared by several tracks (e.g. a retargeted take and the known take), and the RMS
 //!   vertex error they leave.
 //! - [`glb`]: a glTF 2.0 binary of the baked tracks, one node each, side by side, one
