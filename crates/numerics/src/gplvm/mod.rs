@@ -39,6 +39,7 @@ pub mod model;
 pub mod objective;
 pub mod params;
 pub mod predict;
+pub mod sparse;
 
 #[cfg(test)]
 pub(crate) mod testutil;

@@ -1,0 +1,334 @@
+//! The GPLVM likelihood under the deterministic training conditional (DTC; Lawrence 2007,
+//! "Learning for larger datasets with the Gaussian process latent variable model"): $M$
+//! inducing points $U$ in the latent space stand for the $N$ latent points, so one
+//! evaluation costs $O(NM^2 + NMD)$ instead of $O(N^3)$ (#32).
+//!
+//! With $K_{uu} = k(U, U) + jI$ ($j$ a fixed jitter), $K_{uf} = k(U, X)$,
+//! $Q = K_{fu}K_{uu}^{-1}K_{uf}$ and $C = Q + \sigma^2 I$ ($\sigma^2 = \sigma_w^2$):
+//! $$E = \tfrac D2\log\lvert C\rvert + \tfrac12\operatorname{tr}(C^{-1}YY^\top) + \tfrac{ND}2\log 2\pi .$$
+//!
+//! By Woodbury, with $A = \sigma^2K_{uu} + K_{uf}K_{fu}$ ($M\times M$), $B = K_{uf}Y$ and
+//! $W = A^{-1}B$:
+//! $\log\lvert C\rvert = (N - M)\log\sigma^2 + \log\lvert A\rvert - \log\lvert K_{uu}\rvert$ and
+//! $\operatorname{tr}(C^{-1}YY^\top) = \sigma^{-2}(\operatorname{tr}Y^\top Y - \operatorname{tr}B^\top W)$.
+//!
+//! Gradients, with $H = \tfrac D2A^{-1} + \tfrac1{2\sigma^2}WW^\top$:
+//! $$\frac{\partial E}{\partial K_{uu}} = \sigma^2H - \tfrac D2K_{uu}^{-1},\quad
+//! \frac{\partial E}{\partial K_{uf}} = 2HK_{uf} - \sigma^{-2}WY^\top,$$
+//! $$\frac{\partial E}{\partial\sigma^2} = \frac{D(N - M)}{2\sigma^2} + \operatorname{tr}(HK_{uu})
+//! - \frac{\operatorname{tr}Y^\top Y - \operatorname{tr}B^\top W}{2\sigma^4},$$
+//!
+//! then through the RBF kernel to $X$, $U$, $\sigma_f^2$ and $\ell$. No $N\times N$ matrix is
+//! formed. When $U = X$ (and $j \to 0$), $Q = K$ and $E$ is the dense likelihood.
+//!
+//! Why DTC rather than the collapsed variational bound (Titsias and Lawrence's Bayesian
+//! GPLVM): reprise's GPLVM is a MAP fit of point latents under the dynamics and connectivity
+//! priors, which DTC keeps unchanged; the collapsed bound needs distributions over $X$
+//! (ψ-statistics), and its dynamics form is a different model.
+
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
+
+use super::kernel::sq_dist;
+use super::latent::{best_latent, ProjectOptions, Projection};
+use super::{GplvmError, Hyper, HyperGrad, MeanPredictor};
+
+/// The jitter on $K_{uu}$'s diagonal, relative to $\sigma_f^2$.
+pub const JITTER: f64 = 1e-8;
+
+/// Inducing points closer than this many length scales are refused as coinciding.
+pub const COINCIDE: f64 = 1e-6;
+
+/// One evaluation of [`SparseLikelihood::evaluate`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SparseEval {
+    /// $E$.
+    pub value: f64,
+    /// $\partial E/\partial(\sigma_f^2, \ell, \sigma_w^2)$, natural space.
+    pub grad_hyper: HyperGrad,
+}
+
+/// The DTC likelihood of a fixed $Y$.
+#[derive(Debug, Clone)]
+pub struct SparseLikelihood {
+    y: Mat<f64>,
+    yy: f64,
+    q: usize,
+}
+
+impl SparseLikelihood {
+    /// The likelihood of the row-major `N × d` data `y` with latent dimension `q`.
+    ///
+    /// # Errors
+    /// [`GplvmError::Shape`] for no data, rows that are not whole, or `q = 0`.
+    pub fn new(y: &[f64], d: usize, q: usize) -> Result<Self, GplvmError> {
+        if d == 0 || q == 0 || y.is_empty() || !y.len().is_multiple_of(d) {
+            return Err(GplvmError::Shape(format!("{} values are not rows of {d} (q = {q})", y.len())));
+        }
+        let n = y.len() / d;
+        Ok(Self { y: Mat::from_fn(n, d, |i, j| y[i * d + j]), yy: y.iter().map(|v| v * v).sum(), q })
+    }
+
+    /// Rows $N$.
+    pub fn n(&self) -> usize {
+        self.y.nrows()
+    }
+
+    /// $E$ at latents `x` (`N × q`), inducing points `u` (`M × q`) and `hyper`, with
+    /// $\partial E/\partial X$ into `grad_x` and $\partial E/\partial U$ into `grad_u`.
+    ///
+    /// # Errors
+    /// [`GplvmError::Shape`] for wrong lengths, more inducing points than rows, inducing
+    /// points that coincide ([`COINCIDE`]), or a matrix that will not factor.
+    pub fn evaluate(
+        &self,
+        x: &[f64],
+        u: &[f64],
+        hyper: &Hyper,
+        grad_x: &mut [f64],
+        grad_u: &mut [f64],
+    ) -> Result<SparseEval, GplvmError> {
+        let (n, d, q) = (self.n(), self.y.ncols(), self.q);
+        let m = u.len() / q;
+        if x.len() != n * q || u.len() != m * q || m == 0 || grad_x.len() != x.len() || grad_u.len() != u.len() {
+            return Err(GplvmError::Shape(format!("{n} latents and {m} inducing points of {q} dimensions expected")));
+        }
+        if m > n {
+            return Err(GplvmError::Shape(format!("{m} inducing points for {n} latent points: at most one per point")));
+        }
+        let (sf2, ell2, s2) = (hyper.rbf_variance, hyper.lengthscale * hyper.lengthscale, hyper.white_variance);
+        let k = |a: &[f64], b: &[f64]| sf2 * (-0.5 * sq_dist(a, b) / ell2).exp();
+        fn row(v: &[f64], i: usize, q: usize) -> &[f64] {
+            &v[i * q..(i + 1) * q]
+        }
+        let jitter = JITTER * sf2;
+        // Coinciding inducing points make K_uu singular but for the jitter: the fit would
+        // carry a duplicate that explains nothing, so they are refused by name.
+        let tiny = (COINCIDE * hyper.lengthscale).powi(2);
+        for i in 0..m {
+            if let Some(j) = (0..i).find(|&j| sq_dist(row(u, i, q), row(u, j, q)) < tiny) {
+                return Err(GplvmError::Shape(format!(
+                    "inducing points {j} and {i} coincide (closer than {COINCIDE} length scales): they collapse onto each other"
+                )));
+            }
+        }
+        let kuu = Mat::from_fn(m, m, |i, j| k(row(u, i, q), row(u, j, q)) + if i == j { jitter } else { 0.0 });
+        let kuf = Mat::from_fn(m, n, |i, j| k(row(u, i, q), row(x, j, q)));
+        let a = &kuu * s2 + &kuf * kuf.transpose();
+        let collapse = || {
+            GplvmError::Shape(
+                "the inducing points' kernel will not factor: do inducing points collapse onto each other?".into(),
+            )
+        };
+        let la = a.llt(Side::Lower).map_err(|_| collapse())?;
+        let lu = kuu.llt(Side::Lower).map_err(|_| collapse())?;
+        let logdet = |l: &faer::linalg::solvers::Llt<f64>| (0..m).map(|i| 2.0 * l.L()[(i, i)].ln()).sum::<f64>();
+        let b = &kuf * &self.y;
+        let w = la.solve(&b);
+        let btw: f64 = (0..m).flat_map(|i| (0..d).map(move |j| (i, j))).map(|(i, j)| b[(i, j)] * w[(i, j)]).sum();
+        let log_c = (n - m) as f64 * s2.ln() + logdet(&la) - logdet(&lu);
+        let fit = self.yy - btw;
+        let value =
+            0.5 * d as f64 * log_c + fit / (2.0 * s2) + 0.5 * (n * d) as f64 * (2.0 * std::f64::consts::PI).ln();
+
+        let identity = Mat::<f64>::identity(m, m);
+        let a_inv = la.solve(&identity);
+        let kuu_inv = lu.solve(&identity);
+        let h = &a_inv * (0.5 * d as f64) + (&w * w.transpose()) * (0.5 / s2);
+        let g_uu = &h * s2 - &kuu_inv * (0.5 * d as f64);
+        let g_uf = (&h * &kuf) * 2.0 - (&w * self.y.transpose()) * (1.0 / s2);
+        let tr_hk: f64 = (0..m).flat_map(|i| (0..m).map(move |j| (i, j))).map(|(i, j)| h[(i, j)] * kuu[(j, i)]).sum();
+        let d_s2 = 0.5 * d as f64 * (n - m) as f64 / s2 + tr_hk - fit / (2.0 * s2 * s2);
+
+        // Through the kernel: ∂k(a, b)/∂a = k (b − a)/ℓ², ∂k/∂σf² = k/σf², ∂k/∂ℓ = k|a − b|²/ℓ³.
+        grad_x.fill(0.0);
+        grad_u.fill(0.0);
+        let (mut d_sf2, mut d_ell) = (0.0, 0.0);
+        let ell3 = ell2 * hyper.lengthscale;
+        for i in 0..m {
+            for j in 0..n {
+                let (g, kv) = (g_uf[(i, j)], kuf[(i, j)]);
+                if kv == 0.0 {
+                    continue;
+                }
+                let (ui, xj) = (row(u, i, q), row(x, j, q));
+                for a in 0..q {
+                    let delta = (ui[a] - xj[a]) / ell2;
+                    grad_x[j * q + a] += g * kv * delta;
+                    grad_u[i * q + a] -= g * kv * delta;
+                }
+                d_sf2 += g * kv / sf2;
+                d_ell += g * kv * sq_dist(ui, xj) / ell3;
+            }
+            for j in 0..m {
+                let kv = kuu[(i, j)] - if i == j { jitter } else { 0.0 };
+                let g = g_uu[(i, j)];
+                // The jitter scales with σf² too.
+                d_sf2 += g * (kv + if i == j { jitter } else { 0.0 }) / sf2;
+                if i != j {
+                    let (ui, uj) = (row(u, i, q), row(u, j, q));
+                    for a in 0..q {
+                        grad_u[i * q + a] += 2.0 * g * kv * (uj[a] - ui[a]) / ell2;
+                    }
+                    d_ell += g * kv * sq_dist(ui, uj) / ell3;
+                }
+            }
+        }
+        Ok(SparseEval {
+            value,
+            grad_hyper: HyperGrad { rbf_variance: d_sf2, lengthscale: d_ell, white_variance: d_s2 },
+        })
+    }
+}
+
+impl SparseLikelihood {
+    /// The DTC posterior mean $\mu(x_*) = k(x_*, U)^\top W$, $W = A^{-1}K_{uf}Y$: a
+    /// [`MeanPredictor`] over the inducing points, so reconstruction costs $O(M(q + D))$.
+    ///
+    /// # Errors
+    /// As [`SparseLikelihood::evaluate`].
+    pub fn predictor(&self, x: &[f64], u: &[f64], hyper: &Hyper) -> Result<MeanPredictor, GplvmError> {
+        let (n, d, q) = (self.n(), self.y.ncols(), self.q);
+        let m = u.len() / q;
+        // Validates the shapes and the inducing points as an evaluation does.
+        self.evaluate(x, u, hyper, &mut vec![0.0; n * q], &mut vec![0.0; m * q])?;
+        let k = |a: &[f64], b: &[f64]| hyper.rbf_variance * (-0.5 * sq_dist(a, b) / hyper.lengthscale.powi(2)).exp();
+        let kuf = Mat::from_fn(m, n, |i, j| k(&u[i * q..(i + 1) * q], &x[j * q..(j + 1) * q]));
+        let kuu = Mat::from_fn(m, m, |i, j| {
+            k(&u[i * q..(i + 1) * q], &u[j * q..(j + 1) * q]) + if i == j { JITTER * hyper.rbf_variance } else { 0.0 }
+        });
+        let a = &kuu * hyper.white_variance + &kuf * kuf.transpose();
+        let w = a
+            .llt(Side::Lower)
+            .map_err(|_| GplvmError::Shape("the inducing points' kernel will not factor".into()))?
+            .solve(&kuf * &self.y);
+        let w: Vec<f64> = (0..m).flat_map(|i| (0..d).map(move |j| (i, j))).map(|(i, j)| w[(i, j)]).collect();
+        MeanPredictor::from_parts(u.to_vec(), w, q, d, *hyper)
+    }
+}
+
+/// The latent point of a new pose `y` (x* for y*) under a sparse model's `predictor`: the
+/// minimiser of $\lVert y - \mu(x)\rVert^2$ ([`best_latent`]), started from the inducing
+/// points whose predicted poses are nearest `y`.
+pub fn infer_latent(predictor: &MeanPredictor, y: &[f64], opts: &ProjectOptions) -> Projection {
+    let (q, d) = (predictor.q(), predictor.d());
+    let mut at = vec![0.0; d];
+    let outputs: Vec<f64> = predictor
+        .x()
+        .chunks_exact(q)
+        .flat_map(|u| {
+            predictor.mean(u, &mut at);
+            at.clone()
+        })
+        .collect();
+    best_latent(predictor, y, &outputs, opts)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gplvm::{Jitter, Likelihood, LikelihoodConfig};
+
+    /// 12 points on a curve in 3-D, their 2-D latents, and 5 inducing points among them.
+    fn problem() -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let t: Vec<f64> = (0..12).map(|i| -1.0 + 2.0 * f64::from(i) / 11.0).collect();
+        let y: Vec<f64> = t.iter().flat_map(|&s| [s.sin(), s * s, 0.5 * s.cos()]).collect();
+        let x: Vec<f64> = t.iter().flat_map(|&s| [s, 0.3 * (3.0 * s).sin()]).collect();
+        let u: Vec<f64> = [0.9, -0.5, 0.1, 0.4, -0.8].iter().flat_map(|&s: &f64| [s, 0.2 * s * s]).collect();
+        (y, x, u)
+    }
+
+    #[test]
+    fn every_gradient_matches_central_differences() {
+        let (y, x, u) = problem();
+        let lik = SparseLikelihood::new(&y, 3, 2).unwrap();
+        let hyper = Hyper { rbf_variance: 1.3, lengthscale: 0.7, white_variance: 0.05 };
+        let (mut gx, mut gu) = (vec![0.0; x.len()], vec![0.0; u.len()]);
+        let e = lik.evaluate(&x, &u, &hyper, &mut gx, &mut gu).unwrap();
+        let (mut sx, mut su) = (gx.clone(), gu.clone());
+        let mut value = |x: &[f64], u: &[f64], h: &Hyper| lik.evaluate(x, u, h, &mut sx, &mut su).unwrap().value;
+        let h = 1e-6;
+        let close =
+            |fd: f64, g: f64, what: &str| assert!((fd - g).abs() < 1e-5 * (1.0 + g.abs()), "{what}: {fd} vs {g}");
+        for i in 0..x.len() {
+            let (mut a, mut b) = (x.clone(), x.clone());
+            a[i] += h;
+            b[i] -= h;
+            close((value(&a, &u, &hyper) - value(&b, &u, &hyper)) / (2.0 * h), gx[i], &format!("x[{i}]"));
+        }
+        for i in 0..u.len() {
+            let (mut a, mut b) = (u.clone(), u.clone());
+            a[i] += h;
+            b[i] -= h;
+            close((value(&x, &a, &hyper) - value(&x, &b, &hyper)) / (2.0 * h), gu[i], &format!("u[{i}]"));
+        }
+        let bump = |f: &dyn Fn(&mut Hyper, f64)| {
+            let (mut a, mut b) = (hyper, hyper);
+            f(&mut a, h);
+            f(&mut b, -h);
+            (a, b)
+        };
+        let (a, b) = bump(&|p, s| p.rbf_variance += s);
+        close((value(&x, &u, &a) - value(&x, &u, &b)) / (2.0 * h), e.grad_hyper.rbf_variance, "σf²");
+        let (a, b) = bump(&|p, s| p.lengthscale += s);
+        close((value(&x, &u, &a) - value(&x, &u, &b)) / (2.0 * h), e.grad_hyper.lengthscale, "ℓ");
+        let (a, b) = bump(&|p, s| p.white_variance += s);
+        close((value(&x, &u, &a) - value(&x, &u, &b)) / (2.0 * h), e.grad_hyper.white_variance, "σw²");
+    }
+
+    #[test]
+    fn inducing_points_at_the_latents_give_the_dense_likelihood() {
+        let (y, x, _) = problem();
+        let hyper = Hyper { rbf_variance: 1.1, lengthscale: 0.8, white_variance: 0.02 };
+        let sparse = SparseLikelihood::new(&y, 3, 2).unwrap();
+        let (mut gx, mut gu) = (vec![0.0; x.len()], vec![0.0; x.len()]);
+        let s = sparse.evaluate(&x, &x, &hyper, &mut gx, &mut gu).unwrap();
+        let config = LikelihoodConfig { jitter: Jitter::NONE, white_floor: 0.0, ..LikelihoodConfig::default() };
+        let mut dense = Likelihood::new(&y, 3, 2, config).unwrap();
+        let mut g = vec![0.0; x.len()];
+        let e = dense.evaluate(&x, &hyper, &mut g).unwrap();
+        assert!((s.value - e.value).abs() < 1e-5 * e.value.abs().max(1.0), "{} vs {}", s.value, e.value);
+        // Moving a latent moves its inducing point with it: the sum of both gradients.
+        for i in 0..x.len() {
+            let total = gx[i] + gu[i];
+            assert!((total - g[i]).abs() < 1e-4 * (1.0 + g[i].abs()), "x[{i}]: {total} vs {}", g[i]);
+        }
+        let (a, b) = (s.grad_hyper, e.grad_hyper);
+        for (p, r) in
+            [(a.rbf_variance, b.rbf_variance), (a.lengthscale, b.lengthscale), (a.white_variance, b.white_variance)]
+        {
+            assert!((p - r).abs() < 1e-4 * (1.0 + r.abs()), "{p} vs {r}");
+        }
+    }
+
+    #[test]
+    fn a_training_poses_latent_is_recovered_through_the_inducing_points() {
+        // 40 poses of a 1-D curve in 3-D at known latents; 8 inducing points among them.
+        let t: Vec<f64> = (0..40).map(|i| -1.5 + 3.0 * f64::from(i) / 39.0).collect();
+        let y: Vec<f64> = t.iter().flat_map(|&s| [s.sin(), s.cos(), 0.4 * s]).collect();
+        let u: Vec<f64> = t.iter().step_by(5).copied().collect();
+        let lik = SparseLikelihood::new(&y, 3, 1).unwrap();
+        let hyper = Hyper { rbf_variance: 1.0, lengthscale: 0.6, white_variance: 1e-4 };
+        let p = lik.predictor(&t, &u, &hyper).unwrap();
+        assert_eq!(p.n(), 8, "the predictor is over the inducing points");
+        for j in [3, 17, 31] {
+            let found = infer_latent(&p, &y[3 * j..3 * j + 3], &ProjectOptions::default());
+            assert!((found.x[0] - t[j]).abs() < 0.02, "pose {j}: latent {} vs {}", found.x[0], t[j]);
+        }
+    }
+
+    #[test]
+    fn more_inducing_points_than_rows_or_collapsed_ones_are_refused() {
+        let (y, x, _) = problem();
+        let lik = SparseLikelihood::new(&y, 3, 2).unwrap();
+        let hyper = Hyper { rbf_variance: 1.0, lengthscale: 1.0, white_variance: 0.01 };
+        let many = [x.clone(), x[..2].to_vec()].concat();
+        let (mut gx, mut gu) = (vec![0.0; x.len()], vec![0.0; many.len()]);
+        let err = lik.evaluate(&x, &many, &hyper, &mut gx, &mut gu).unwrap_err().to_string();
+        assert!(err.contains("13 inducing points for 12"), "{err}");
+        let same = [0.3, 0.1].repeat(4);
+        let mut gu = vec![0.0; same.len()];
+        let err = lik.evaluate(&x, &same, &hyper, &mut gx, &mut gu).unwrap_err().to_string();
+        assert!(err.contains("inducing points 0 and 1 coincide"), "{err}");
+    }
+}
