@@ -7,6 +7,10 @@
 //! Run from the repository root after `cargo build --release`:
 //! `target/release/reprise-bench`.
 //!
+//! `target/release/reprise-bench --sparse` instead measures one evaluation of the sparse
+//! (DTC) GPLVM likelihood for N ∈ {1k, 4k, 16k, 64k} × M ∈ {25, 50, 100, 200} inducing
+//! points, beside the dense likelihood where it is feasible (#32).
+//!
 //! `target/release/reprise-bench --verdicts-seed 8` instead runs the default pipeline on the
 //! corpus of `pipeline.toml` and on the corpus generated with seed 8, and lists, per headline
 //! metric, the verdict of each and whether it survives.
@@ -32,6 +36,9 @@ struct Args {
     /// this generator seed and list which of the default run's verdicts survive.
     #[arg(long, value_name = "SEED")]
     verdicts_seed: Option<u64>,
+    /// Instead of the benchmarks: the sparse GPLVM likelihood's cost per evaluation.
+    #[arg(long)]
+    sparse: bool,
 }
 
 fn main() {
@@ -51,6 +58,9 @@ fn bin(name: &str) -> PathBuf {
 fn bench(args: &Args) -> Result<()> {
     if let Some(seed) = args.verdicts_seed {
         return verdicts(args, seed);
+    }
+    if args.sparse {
+        return sparse_costs();
     }
     let dir = tempfile::tempdir()?;
     println!("# reprise benchmarks\n");
@@ -309,5 +319,78 @@ fn big_ingest(args: &Args, dir: &Path) -> Result<()> {
         std::fs::metadata(&path)?.len() as f64 / 1_048_576.0,
         peak["peak_rss_bytes"].as_f64().unwrap_or(0.0) / 1_048_576.0
     );
+    Ok(())
+}
+
+/// Seconds of the fastest of `runs` calls of `f`.
+fn fastest(runs: usize, mut f: impl FnMut()) -> f64 {
+    (0..runs)
+        .map(|_| {
+            let t = Instant::now();
+            f();
+            t.elapsed().as_secs_f64()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// One evaluation (value and every gradient) of the sparse likelihood for N × M, and of the
+/// dense one where it fits in a few seconds, on a smooth 3-D latent curve seen in 32
+/// outputs; ratios against the dense evaluation at N = 1,000 measured in this run.
+fn sparse_costs() -> Result<()> {
+    use reprise_numerics::gplvm::sparse::SparseLikelihood;
+    use reprise_numerics::gplvm::{Hyper, Likelihood, LikelihoodConfig};
+    let (q, d) = (3, 32);
+    let hyper = Hyper { rbf_variance: 1.0, lengthscale: 0.5, white_variance: 0.01 };
+    let data = |n: usize| {
+        let x: Vec<f64> = (0..n)
+            .flat_map(|i| {
+                let t = 6.0 * i as f64 / n as f64;
+                [t.sin(), (1.3 * t).cos(), 0.2 * t - 0.6]
+            })
+            .collect();
+        let y: Vec<f64> = x
+            .chunks_exact(q)
+            .flat_map(|p| (0..d).map(move |j| (p[j % q] * (1.0 + j as f64 * 0.1) + p[(j + 1) % q]).sin()))
+            .collect();
+        (x, y)
+    };
+    let dense_at = |n: usize| -> Result<f64> {
+        let (x, y) = data(n);
+        let mut lik = Likelihood::new(&y, d, q, LikelihoodConfig::default())?;
+        let mut g = vec![0.0; x.len()];
+        Ok(fastest(if n <= 1000 { 3 } else { 1 }, || {
+            lik.evaluate(&x, &hyper, &mut g).expect("a dense evaluation");
+        }))
+    };
+    let reference = dense_at(1000)?;
+    println!("# The sparse (DTC) GPLVM likelihood: one evaluation\n");
+    println!(
+        "{} logical CPUs; q = {q}, D = {d}; value and every gradient; the reference is one dense evaluation at \
+         N = 1,000 in this run: {:.4} s\n",
+        num_cpus(),
+        reference
+    );
+    println!("| N | dense (s) | M = 25 | M = 50 | M = 100 | M = 200 |\n|---:|---:|---:|---:|---:|---:|");
+    for n in [1_000, 4_000, 16_000, 64_000] {
+        let dense = if n <= 4_000 {
+            let secs = dense_at(n)?;
+            format!("{secs:.3} ({:.1} ×)", secs / reference)
+        } else {
+            "–".into()
+        };
+        let (x, y) = data(n);
+        let lik = SparseLikelihood::new(&y, d, q)?;
+        let mut cells = Vec::new();
+        for m in [25, 50, 100, 200] {
+            let u: Vec<f64> = x.chunks_exact(q).step_by(n / m).take(m).flatten().copied().collect();
+            let (mut gx, mut gu) = (vec![0.0; x.len()], vec![0.0; u.len()]);
+            let secs = fastest(3, || {
+                lik.evaluate(&x, &u, &hyper, &mut gx, &mut gu).expect("a sparse evaluation");
+            });
+            cells.push(format!("{secs:.4} ({:.3} ×)", secs / reference));
+        }
+        println!("| {n} | {dense} | {} |", cells.join(" | "));
+    }
+    println!("\nDense beyond N = 4,000 is not run: one evaluation costs N³ (about 64 × the N = 4,000 one at 16,000).");
     Ok(())
 }
