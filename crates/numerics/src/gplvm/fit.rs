@@ -429,7 +429,7 @@ pub fn fit_observed(
     let mut runs = Vec::new();
     let mut start = coords.to_optimiser(&p0);
     // The log ℓ entry, whose gradient is zeroed when ℓ is fixed (so no optimiser moves it).
-    let fixed = config.fix_lengthscale.then_some(n * q + 1);
+    let fixed = config.fix_lengthscale.then_some(layout.hyper_offset() + 1);
     let mut fitted = None;
     if let Some(cheap) = cheap {
         let exact = objective.set_connectivity(Some(cheap));

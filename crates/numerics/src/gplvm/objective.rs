@@ -1,12 +1,16 @@
 //! The MAP objective $E = -\log p(Y\mid X,\theta) - \psi_D(X) - \psi_C(X)$ over the flat
-//! parameter vector of [`Layout`] ($X$ row-major, then $\log\sigma_f^2, \log\ell,
-//! \log\sigma_w^2$), in the shape [`crate::scg::scg`] wants.
+//! parameter vector of [`Layout`] ($X$ row-major, the sparse fit's inducing points, then
+//! $\log\sigma_f^2, \log\ell, \log\sigma_w^2$), in the shape [`crate::scg::scg`] wants.
 //!
-//! Only the likelihood and the optional [`SignalPrior`] depend on the hyperparameters;
-//! each prior is optional.
+//! The likelihood is the dense one ([`Likelihood`]) or the sparse DTC one
+//! ([`SparseLikelihood`], over $M$ inducing points that are parameters too), with the same
+//! white-variance floors. Only the likelihood and the optional [`SignalPrior`] depend on
+//! the hyperparameters; each prior is optional.
 
+use super::likelihood::Floor;
 use super::params::JitterUsed;
-use super::{ConnectivityPrior, DynamicsPrior, GplvmError, Layout, Likelihood};
+use super::sparse::{SparseLikelihood, JITTER};
+use super::{ConnectivityPrior, DynamicsPrior, GplvmError, Hyper, Layout, Likelihood, LikelihoodConfig};
 
 /// The parts of one evaluation.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -64,11 +68,18 @@ impl SignalPrior {
     }
 }
 
+/// The likelihood part: dense, or sparse over inducing points.
+#[derive(Debug)]
+enum Data {
+    Dense(Box<Likelihood>),
+    Sparse(SparseLikelihood, LikelihoodConfig),
+}
+
 /// Likelihood plus optional priors, evaluated together.
 #[derive(Debug)]
 pub struct Objective {
     layout: Layout,
-    likelihood: Likelihood,
+    likelihood: Data,
     dynamics: Option<DynamicsPrior>,
     connectivity: Option<ConnectivityPrior>,
     signal: Option<SignalPrior>,
@@ -82,11 +93,37 @@ impl Objective {
         dynamics: Option<DynamicsPrior>,
         connectivity: Option<ConnectivityPrior>,
     ) -> Result<Self, GplvmError> {
-        let n = likelihood.n();
+        let layout = Layout::dense(likelihood.n(), likelihood.q());
+        Self::with_priors(layout, Data::Dense(Box::new(likelihood)), dynamics, connectivity)
+    }
+
+    /// The sparse objective: the DTC `likelihood` over `inducing` points (parameters of
+    /// the [`Layout`]), its white variance floored by `config` as the dense one's is.
+    pub fn sparse(
+        likelihood: SparseLikelihood,
+        inducing: usize,
+        config: LikelihoodConfig,
+        dynamics: Option<DynamicsPrior>,
+        connectivity: Option<ConnectivityPrior>,
+    ) -> Result<Self, GplvmError> {
+        let (n, q) = (likelihood.n(), likelihood.q());
+        if inducing == 0 || inducing > n {
+            return Err(GplvmError::Shape(format!("{inducing} inducing points for {n} latent points: 1 to {n}")));
+        }
+        let layout = Layout { n, q, m: inducing };
+        Self::with_priors(layout, Data::Sparse(likelihood, config), dynamics, connectivity)
+    }
+
+    fn with_priors(
+        layout: Layout,
+        likelihood: Data,
+        dynamics: Option<DynamicsPrior>,
+        connectivity: Option<ConnectivityPrior>,
+    ) -> Result<Self, GplvmError> {
+        let n = layout.n;
         if dynamics.as_ref().is_some_and(|d| d.n() != n) || connectivity.as_ref().is_some_and(|c| c.n() != n) {
             return Err(GplvmError::Shape(format!("every prior must cover the likelihood's N = {n} points")));
         }
-        let layout = Layout { n, q: likelihood.q() };
         Ok(Self { layout, likelihood, dynamics, connectivity, signal: None, last: EvalInfo::default() })
     }
 
@@ -102,9 +139,12 @@ impl Objective {
         self.layout
     }
 
-    /// The likelihood part.
-    pub fn likelihood(&mut self) -> &mut Likelihood {
-        &mut self.likelihood
+    /// The dense likelihood part (none for the sparse objective).
+    pub fn likelihood(&mut self) -> Option<&mut Likelihood> {
+        match &mut self.likelihood {
+            Data::Dense(l) => Some(l),
+            Data::Sparse(..) => None,
+        }
     }
 
     /// The dynamics prior, if any.
@@ -140,15 +180,25 @@ impl Objective {
                 grad.len()
             )));
         }
-        let o = layout.n * layout.q;
+        let o = layout.hyper_offset();
         if params[o..].iter().any(|v| !v.is_finite()) {
             return Err(GplvmError::NonFinite("log hyperparameter"));
         }
         let hyper = layout.hyper(params);
-        let x = layout.x(params);
-        let (gx, gh) = grad.split_at_mut(o);
-        let lik = self.likelihood.evaluate(x, &hyper, gx)?;
-        gh.copy_from_slice(&lik.grad_hyper_log(&hyper).to_array());
+        let nq = layout.n * layout.q;
+        let (gxu, gh) = grad.split_at_mut(o);
+        let lik = match &mut self.likelihood {
+            Data::Dense(l) => {
+                let e = l.evaluate(layout.x(params), &hyper, &mut gxu[..nq])?;
+                gh.copy_from_slice(&e.grad_hyper_log(&hyper).to_array());
+                e
+            }
+            Data::Sparse(l, config) => {
+                let (gx, gu) = gxu.split_at_mut(nq);
+                sparse_eval(l, config, layout.x(params), layout.u(params), &hyper, gx, gu, gh)?
+            }
+        };
+        let (x, gx) = (layout.x(params), &mut gxu[..nq]);
         let dynamics = match self.dynamics.as_mut() {
             Some(d) => d.value_grad_add(x, gx)?,
             None => 0.0,
@@ -198,6 +248,42 @@ impl Objective {
     }
 }
 
+/// The sparse likelihood at the floored white variance, as [`super::LikelihoodEval`] with
+/// the log-space hyperparameter gradient written into `gh`: the floor's dependence moves
+/// to $\sigma_f^2$ (relative floor) or vanishes (absolute floor), as the dense one's does.
+#[allow(clippy::too_many_arguments)]
+fn sparse_eval(
+    l: &SparseLikelihood,
+    config: &LikelihoodConfig,
+    x: &[f64],
+    u: &[f64],
+    hyper: &Hyper,
+    gx: &mut [f64],
+    gu: &mut [f64],
+    gh: &mut [f64],
+) -> Result<super::LikelihoodEval, GplvmError> {
+    let (white, floor) = config.white(hyper);
+    let used = Hyper { white_variance: white, ..*hyper };
+    let e = l.evaluate(x, u, &used, gx, gu)?;
+    let mut g = e.grad_hyper;
+    match floor {
+        Floor::None => {}
+        Floor::Relative => {
+            g.rbf_variance += g.white_variance * config.white_floor;
+            g.white_variance = 0.0;
+        }
+        Floor::Absolute => g.white_variance = 0.0,
+    }
+    gh.copy_from_slice(&g.to_log(hyper).to_array());
+    Ok(super::LikelihoodEval {
+        value: e.value,
+        grad_hyper: g,
+        jitter: JitterUsed { added: JITTER * hyper.rbf_variance, retries: 0 },
+        white_variance_used: white,
+        white_clamped: floor != Floor::None,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -240,6 +326,51 @@ mod tests {
             eprintln!("{}:{} max relative error {err:.1e}", file!(), line!());
             assert!(err < 1e-7, "priors {priors}: {err:e}");
         }
+    }
+
+    /// The sparse objective's full gradient (latents, inducing points, log hyperparameters,
+    /// every prior) against central differences, above and below the white-variance floor;
+    /// and with the inducing points at the latents, its value is the dense objective's.
+    #[test]
+    fn the_sparse_objective_matches_differences_and_the_dense_one() {
+        let (n, d, q) = (27, 5, 3);
+        let (x, y) = random_problem(n, d, q, 31);
+        let times: Vec<f64> = (0..n).map(|i| (i % 9) as f64).collect();
+        let seg: Vec<usize> = (0..n).map(|i| i / 9).collect();
+        let dp = DynamicsParams { lengthscale: 2.0, white_variance: 1e-2, weight: 0.5, ..Default::default() };
+        let config = LikelihoodConfig { white_floor: 0.05, ..LikelihoodConfig::default() };
+        let u: Vec<f64> = x.chunks_exact(q).step_by(3).flatten().copied().collect();
+        let mut obj = Objective::sparse(
+            SparseLikelihood::new(&y, d, q).unwrap(),
+            u.len() / q,
+            config,
+            Some(DynamicsPrior::new(&times, &seg, q, dp).unwrap()),
+            Some(ConnectivityPrior::new(n, q, ConnectivityParams { weight: 0.3, ..Default::default() }).unwrap()),
+        )
+        .unwrap()
+        .with_signal_prior(Some(SignalPrior { median: 0.4, log_sd: 0.7 }))
+        .unwrap();
+        // σw² = 0.02 is below the relative floor 0.05 σf² = 0.045; 0.08 is above it.
+        for white in [0.02, 0.08] {
+            let p =
+                obj.layout().pack_sparse(&x, &u, &Hyper { rbf_variance: 0.9, lengthscale: 1.1, white_variance: white });
+            let mut g = vec![0.0; p.len()];
+            obj.evaluate(&p, &mut g);
+            assert!(obj.last().error.is_none(), "{:?}", obj.last().error);
+            assert_eq!(obj.last().white_clamped, white < 0.045);
+            let mut scratch = vec![0.0; p.len()];
+            let fd = central_diff(&p, 1e-5, |pp| obj.evaluate(pp, &mut scratch));
+            let err = max_rel_err(&g, &fd);
+            assert!(err < 1e-6, "σw² {white}: {err:e}");
+        }
+        let dense_config = LikelihoodConfig { jitter: crate::gplvm::Jitter::NONE, ..config };
+        let mut dense = Objective::new(Likelihood::new(&y, d, q, dense_config).unwrap(), None, None).unwrap();
+        let mut sparse = Objective::sparse(SparseLikelihood::new(&y, d, q).unwrap(), n, config, None, None).unwrap();
+        let h = Hyper { rbf_variance: 0.9, lengthscale: 1.1, white_variance: 0.08 };
+        let (pd, ps) = (dense.layout().pack(&x, &h), sparse.layout().pack_sparse(&x, &x, &h));
+        let (vd, vs) = (dense.evaluate(&pd, &mut vec![0.0; pd.len()]), sparse.evaluate(&ps, &mut vec![0.0; ps.len()]));
+        assert!((vd - vs).abs() < 1e-5 * vd.abs(), "dense {vd} vs sparse {vs}");
+        assert!(Objective::sparse(SparseLikelihood::new(&y, d, q).unwrap(), n + 1, config, None, None).is_err());
     }
 
     /// A non-finite input is NaN (it stops the optimisers) with a zero gradient and a

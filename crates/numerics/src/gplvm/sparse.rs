@@ -74,6 +74,11 @@ impl SparseLikelihood {
         self.y.nrows()
     }
 
+    /// Latent dimension $q$.
+    pub fn q(&self) -> usize {
+        self.q
+    }
+
     /// $E$ at latents `x` (`N × q`), inducing points `u` (`M × q`) and `hyper`, with
     /// $\partial E/\partial X$ into `grad_x` and $\partial E/\partial U$ into `grad_u`.
     ///
