@@ -116,43 +116,34 @@ fn a_face_capture_is_retargeted_onto_the_dragon_and_plays() {
 
     // Ten markers dropped on every frame, and two poses completed from fixed controls.
     let dropped: Vec<String> = capture.points[..10].iter().map(i64::to_string).collect();
-    let a = "artifacts/live-link-face-dragon";
-    p.stage(
-        "reprise-retarget-apply",
-        &[
-            "--model",
-            &format!("{a}/retarget.parquet"),
-            "--capture",
-            "artifacts/live-link-face/positions.parquet",
-            "--controls",
-            &format!("{a}/controls.parquet"),
-            "--truth",
-            &format!("{a}/truth.parquet"),
-            "--curves",
-            "out/curves.parquet",
-            "--frames",
-            "out/frames.parquet",
-            "--glb",
-            "out/r.glb",
-            "--report",
-            "out/r.md",
-            "--player",
-            "out/r.html",
-            "--missing",
-            &dropped.join(","),
-            "--pose",
-            "jaw_open=30,smile_L=0.6",
-            "--pose",
-            "jaw_open=4,lip_pucker=0.7,brow_down_L=0.5",
-        ],
-    )
+    let apply = |extra: &[&str]| {
+        let a = "artifacts/live-link-face-dragon";
+        let (model, controls) = (format!("{a}/retarget.parquet"), format!("{a}/controls.parquet"));
+        let mut args = vec!["--model", &model, "--capture", "artifacts/live-link-face/positions.parquet"];
+        args.extend(["--controls", &controls, "--curves", "out/curves.parquet", "--frames", "out/frames.parquet"]);
+        args.extend(["--glb", "out/r.glb", "--report", "out/r.md", "--player", "out/r.html"]);
+        args.extend(extra);
+        p.stage("reprise-retarget-apply", &args)
+    };
+    let missing = dropped.join(",");
+    let truth = "artifacts/live-link-face-dragon/truth.parquet";
+    apply(&[
+        "--truth",
+        truth,
+        "--missing",
+        &missing,
+        "--pose",
+        "jaw_open=30,smile_L=0.6",
+        "--pose",
+        "jaw_open=4,lip_pucker=0.7,brow_down_L=0.5",
+    ])
     .ok();
     let rows = read_frames(&p.path("out/frames.parquet")).unwrap();
     assert!(rows.iter().all(|r| r.missing == 30), "ten markers, thirty values");
     let blind = rows.iter().filter_map(|r| r.mesh_error).sum::<f64>() / rows.len() as f64;
     assert!(blind < 1.5 * model && blind < 0.5 * still, "ten markers fewer: {blind} vs {model}");
     let out = curves::read(&p.path("out/curves.parquet")).unwrap();
-    let posed: Vec<usize> = (0..out.script.len()).filter(|&r| out.script[r] == "posed").collect();
+    let posed: Vec<usize> = (0..out.script.len()).filter(|&r| out.script[r] == reprise_retarget_apply::POSED).collect();
     assert_eq!(posed.len(), 2);
     let col = |name: &str| out.controls.iter().position(|c| c == name).unwrap();
     let value = |r: usize, name: &str| out.values[r * out.controls.len() + col(name)];
@@ -162,6 +153,9 @@ fn a_face_capture_is_retargeted_onto_the_dragon_and_plays() {
     // shape the jaw's opening drives moves with it.
     assert!(value(posed[0], "jaw_open_shape") > value(posed[1], "jaw_open_shape") + 0.05);
     assert!(p.read("out/r.md").contains("`jaw_open` = 30"));
+    // A control the corpus never moves cannot be fixed.
+    let err = apply(&["--pose", "tweak_snout_tx=1"]).fails(exit::CONFIG);
+    assert!(err.contains("`tweak_snout_tx` has no weight"), "{err}");
 }
 
 /// A tiny capture (3 markers), corpus (2 controls) and pairs, written as a user would.

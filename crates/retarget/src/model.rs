@@ -248,7 +248,8 @@ pub fn step_rms(v: &[f64], d: usize, runs: &[std::ops::Range<usize>]) -> f64 {
 /// $s^2 = \delta^2 + 2\sigma_c^2$ ($\delta$ the true motion's step); the term compares a
 /// frame with the previous frame's *estimate* $x^*_{k-1}$, whose own error is at most
 /// $\sigma_c^2$, so $\sigma_t^2 = \delta^2 + \sigma_c^2 = s^2 - \sigma_c^2$, kept at least
-/// $s^2/100$ (a capture whose steps are all noise still moves).
+/// $s^2/100$ (a capture whose steps are all noise still moves); 0 (no temporal term) when
+/// `step` is 0.
 pub fn temporal_noise(step: f64, capture: f64) -> f64 {
     (step * step - capture * capture).max(1e-2 * step * step).sqrt()
 }
@@ -281,10 +282,13 @@ impl<'m> Mapper<'m> {
     /// $\sigma_t$ in source units (converted to normalised units here).
     ///
     /// # Errors
-    /// A kernel that will not factor; a non-positive noise.
+    /// A kernel that will not factor; a non-positive capture noise, a negative or
+    /// non-finite temporal one. A temporal noise of 0 turns the temporal term off (a
+    /// capture without two consecutive frames has no step to set it from).
     pub fn new(model: &'m Model, noise: Noise) -> Result<Self, GplvmError> {
-        if !(noise.capture > 0.0 && noise.temporal > 0.0) {
-            return Err(GplvmError::Shape(format!("noise levels must be positive: {noise:?}")));
+        let finite = noise.capture.is_finite() && noise.temporal.is_finite();
+        if !(finite && noise.capture > 0.0 && noise.temporal >= 0.0) {
+            return Err(GplvmError::Shape(format!("noise levels must be positive (σt may be 0: off): {noise:?}")));
         }
         let s = model.x_norm.scale;
         let source = SourceGp::new(&model.source(), &model.z, model.q, model.hyper_x)?;
@@ -313,6 +317,7 @@ impl<'m> Mapper<'m> {
         let mut start: Vec<f64> =
             obs.iter().zip(seen).enumerate().map(|(d, (&v, &s))| if s { v } else { m.x[near * dx + d] }).collect();
         start.extend_from_slice(&m.z[near * m.q..(near + 1) * m.q]);
+        let previous = previous.filter(|_| self.noise.temporal > 0.0);
         let f = self.source.solve(&start, &obs, seen, previous, self.noise);
         let mut y = vec![0.0; m.dy()];
         self.target.mean(&f.z, &mut y);
@@ -362,6 +367,7 @@ mod tests {
     fn the_temporal_noise_takes_the_capture_noise_out_of_the_step() {
         assert!((temporal_noise(5.0, 3.0) - 4.0).abs() < 1e-12);
         assert!((temporal_noise(1.0, 1.0) - 0.1).abs() < 1e-12, "all noise: kept at a tenth of the step");
+        assert_eq!(temporal_noise(0.0, 1.0), 0.0, "no step: no temporal term");
     }
 
     #[test]

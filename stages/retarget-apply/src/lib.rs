@@ -98,12 +98,13 @@ pub struct Args {
     pub max_frames: usize,
 }
 
-/// The report's name for the known poses projected onto the target space and back: the
-/// least error any method working in that space can reach.
+/// The report's name for the known poses projected onto the target space and back: a
+/// reference for what the space can hold (the projection is nearest in scaled controls, not
+/// in mesh distance, so it is no strict lower bound).
 pub const FLOOR: &str = "the known pose, projected onto the target space";
 
-/// The script of the completed poses.
-pub const POSED: &str = "posed";
+/// The script of the completed poses (parenthesised: no capture clip may take the name).
+pub const POSED: &str = "(posed)";
 
 /// Parses `--pose` values into (control index, value) lists over `names`.
 ///
@@ -147,9 +148,12 @@ pub const MODEL: &str = "retarget";
 pub struct Summary {
     /// Per frame.
     pub frames: Vec<MappedFrame>,
-    /// Mean mesh error of the target space's floor ([`FLOOR`]) and of each baseline
-    /// (ridge, GPR), where the poses are known.
-    pub baselines: Vec<(String, f64)>,
+    /// Mean mesh error of the target space's reference ([`FLOOR`]) and of each baseline
+    /// (ridge, GPR), where the poses are known: over every frame, and over the frames the
+    /// model did not train on (NaN when there are none).
+    pub baselines: Vec<(String, f64, f64)>,
+    /// The capture's frame rate.
+    pub fps: f64,
     /// Labelled pairs, source frames, target poses of the model.
     pub rows: (usize, usize, usize),
     /// Seconds the model's fit took.
@@ -219,8 +223,9 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     if capture.points != fitted.settings.points {
         return Err(point_mismatch(&args.io.capture, &fitted.settings.points, &capture.points).into());
     }
-    let rows: Vec<usize> =
-        (0..capture.frames()).filter(|&r| clips.as_ref().is_none_or(|m| m.is_match(&capture.clip[r]))).collect();
+    check_capture(&capture, &args.io.capture, fitted.settings.fps)?;
+    let keep: Vec<bool> = capture.clip.iter().map(|c| clips.as_ref().is_none_or(|m| m.is_match(c))).collect();
+    let rows: Vec<usize> = (0..capture.frames()).filter(|&r| keep[r]).collect();
     if rows.is_empty() || rows.len() > args.max_frames {
         return Err(StageError::Input(format!(
             "{}: {} frames to map (clips {:?}); between 1 and --max-frames {}",
@@ -238,6 +243,17 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     let truth = args.io.truth.as_deref().map(|p| known_poses(p, names, &capture, &rows)).transpose()?;
 
     let (model, space) = model_of(&fitted);
+    if let Some(&(j, _)) = fixed.iter().flatten().find(|&&(j, _)| space.weights[j] <= 0.0) {
+        return Err(StageError::Config(format!(
+            "--pose: `{}` has no weight in the model (the corpus never moves it, or it moves no vertex), so the \
+             model cannot hold it",
+            names[j]
+        )));
+    }
+    let trained: std::collections::HashSet<(&str, i64)> = (0..fitted.role.len())
+        .filter(|&r| fitted.role[r] != Role::Target)
+        .map(|r| (fitted.clip[r].as_str(), fitted.frame[r]))
+        .collect();
     let s = &fitted.settings;
     let mapper = Mapper::new(&model, Noise { capture: s.capture_noise, temporal: s.temporal_noise })
         .map_err(|e| StageError::Input(format!("{}: {e}", args.io.model.display())))?;
@@ -247,12 +263,8 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     let mut poses = Vec::with_capacity(rows.len());
     let bar = reprise_stagekit::progress(rows.len() as u64, "retarget-apply");
     for (clip, a, b) in capture.clip_runs() {
-        let run: Vec<usize> = (a..b).filter(|r| rows.contains(r)).collect();
-        if run.is_empty() {
-            continue;
-        }
+        let run: Vec<usize> = (a..b).filter(|&r| keep[r]).collect();
         let mut previous: Option<Vec<f64>> = None;
-        let mut played = Vec::with_capacity(run.len());
         for &r in &run {
             let started = Instant::now();
             let m = mapper.map(capture.row(r), &seen, previous.as_deref().filter(|_| args.temporal));
@@ -266,13 +278,20 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
                 missing,
                 ms,
                 mesh_error: None,
+                trained: trained.contains(&(clip.as_str(), capture.frame[r])),
             });
-            played.push((pose.clone(), m.z.clone()));
+            // The capture's own frame numbers and times, so the curves stay in sync with it.
+            out.script.push(clip.clone());
+            out.frame.push(capture.frame[r]);
+            out.time.push(capture.frame[r] as f64 / capture.fps);
+            out.model.push(MODEL.into());
+            out.command.push(0);
+            out.x.push(m.z.clone());
+            out.values.extend_from_slice(&pose);
             poses.push(pose);
             previous = Some(m.x);
             bar.inc(1);
         }
-        out.push_script(&clip, played.iter().map(|(p, z)| Frame { model: MODEL, controls: p, x: z, command: 0 }));
     }
     bar.finish_and_clear();
     let posed = complete_poses(&model, &space, &fixed, args.pose_tolerance)?;
@@ -295,9 +314,10 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         let floor: Vec<Vec<f64>> = truth.chunks_exact(c).map(|p| space.decode(&space.encode(p))).collect();
         let mut others = vec![(FLOOR.to_string(), floor)];
         others.extend(baseline_poses(&fitted, &model, &space, &capture, &rows, &seen, args.ridge)?);
+        let held_out: Vec<bool> = stats.iter().map(|f| !f.trained).collect();
         for (name, predicted) in others {
             let e = mesh_errors(&reprise_stagekit::rig::meshes(&rig, &predicted)?, &tracks[1], rig.0.vertex_count());
-            baselines.push((name, e.iter().sum::<f64>() / e.len() as f64));
+            baselines.push((name, mean_where(&e, |_| true), mean_where(&e, |i| held_out[i])));
         }
     }
     curves::write(&args.io.curves, &out, &provenance)?;
@@ -317,6 +337,7 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         components: space.d(),
         baked: (baked.k(), baked.rms_error),
         eval_ms,
+        fps: capture.fps,
         posed: fixed.iter().zip(&posed).map(|(f, p)| (f.clone(), p.residual)).collect(),
     };
     let md = report::markdown(&summary, &fitted.settings, args);
@@ -354,6 +375,45 @@ fn complete_poses(
     let poser = reprise_retarget::pose::Poser::new(model, space)
         .map_err(|e| StageError::Input(format!("the model's target GP: {e}")))?;
     fixed.iter().map(|f| poser.pose(f, tolerance).map_err(|e| StageError::Config(format!("--pose: {e}")))).collect()
+}
+
+/// The mean of `v` over the indices `keep` takes; NaN for none.
+pub fn mean_where(v: &[f64], keep: impl Fn(usize) -> bool) -> f64 {
+    let (sum, n) = v.iter().enumerate().filter(|(i, _)| keep(*i)).fold((0.0, 0usize), |(s, n), (_, x)| (s + x, n + 1));
+    if n == 0 {
+        f64::NAN
+    } else {
+        sum / n as f64
+    }
+}
+
+/// Refuses a capture the model cannot map as fitted: a rate other than the fit's (σt is a
+/// per-frame step), a clip in two separate runs (its curves would be two scripts of one
+/// name), or a clip named [`POSED`].
+fn check_capture(capture: &Positions, path: &std::path::Path, fps: f64) -> StageResult<()> {
+    if (capture.fps - fps).abs() > 1e-9 * fps {
+        return Err(StageError::Input(format!(
+            "{}: {} fps, where the model was fitted at {fps} fps (its temporal term is a per-frame step): fit on a \
+             capture of this rate",
+            path.display(),
+            capture.fps
+        )));
+    }
+    let mut seen = std::collections::HashSet::new();
+    for (clip, _, _) in capture.clip_runs() {
+        if clip == POSED || !seen.insert(clip.clone()) {
+            return Err(StageError::Input(format!(
+                "{}: clip `{clip}` {}",
+                path.display(),
+                if clip == POSED {
+                    "takes the name of the completed poses' script"
+                } else {
+                    "appears in two separate runs of rows"
+                }
+            )));
+        }
+    }
+    Ok(())
 }
 
 fn write_bytes(path: &std::path::Path, bytes: &[u8]) -> StageResult<()> {
@@ -402,8 +462,8 @@ fn mesh_errors(a: &[f64], b: &[f64], vertices: usize) -> Vec<f64> {
 }
 
 /// Ridge regression and GPR fitted on the model's labelled pairs (normalised capture →
-/// normalised target coordinates), each frame's pose decoded. A missing marker is held at
-/// its mean over the training frames (neither regression can leave it out).
+/// normalised target coordinates) over the capture values seen (`--missing` leaves the
+/// others out of the fit, as it leaves them out of the solve), each frame's pose decoded.
 fn baseline_poses(
     fitted: &Retarget,
     model: &Model,
@@ -414,17 +474,14 @@ fn baseline_poses(
     alpha: f64,
 ) -> StageResult<Vec<(String, Vec<Vec<f64>>)>> {
     let (dx, dy, l) = (model.dx(), model.dy(), fitted.role.iter().filter(|&&r| r == Role::Labelled).count());
-    let (xl, yl) = (&model.x[..l * dx], &model.y[..l * dy]);
+    let cols: Vec<usize> = (0..dx).filter(|&j| seen[j]).collect();
+    let pick = |row: &[f64]| cols.iter().map(|&j| row[j]).collect::<Vec<f64>>();
+    let xl: Vec<f64> = model.x[..l * dx].chunks_exact(dx).flat_map(pick).collect();
+    let yl = &model.y[..l * dy];
     let err = |e: reprise_numerics::gplvm::GplvmError| StageError::Input(format!("a baseline's fit: {e}"));
-    let ridge = Ridge::fit(xl, dx, yl, dy, alpha).map_err(err)?;
-    let gp = gpr(xl, dx, yl, dy).map_err(err)?;
-    let inputs: Vec<Vec<f64>> = rows
-        .iter()
-        .map(|&r| {
-            let x = model.x_norm.apply(capture.row(r));
-            x.iter().zip(seen).map(|(&v, &s)| if s { v } else { 0.0 }).collect()
-        })
-        .collect();
+    let ridge = Ridge::fit(&xl, cols.len(), yl, dy, alpha).map_err(err)?;
+    let gp = gpr(&xl, cols.len(), yl, dy).map_err(err)?;
+    let inputs: Vec<Vec<f64>> = rows.iter().map(|&r| pick(&model.x_norm.apply(capture.row(r)))).collect();
     let decode = |y: &[f64]| space.decode(&model.y_norm.invert(y));
     let ridge_poses = inputs.iter().map(|x| decode(&ridge.predict(x))).collect();
     let gpr_poses = inputs
@@ -453,6 +510,25 @@ mod tests {
         assert!(err("jaw_open=NaN").contains("finite"));
         assert!(err("jaw_open=1,jaw_open=2").contains("twice"));
         assert!(err(" , ").contains("fixes no control"));
+    }
+
+    #[test]
+    fn a_capture_of_another_rate_or_with_a_clip_in_two_runs_is_refused() {
+        let capture = |clips: &[&str], fps: f64| Positions {
+            fps,
+            points: vec![0],
+            clip: clips.iter().map(|c| c.to_string()).collect(),
+            frame: (0..clips.len() as i64).collect(),
+            values: vec![0.0; 3 * clips.len()],
+        };
+        let path = std::path::Path::new("take.parquet");
+        assert!(check_capture(&capture(&["a", "a", "b"], 60.0), path, 60.0).is_ok());
+        let err = check_capture(&capture(&["a", "a"], 30.0), path, 60.0).unwrap_err().to_string();
+        assert!(err.contains("30 fps") && err.contains("fitted at 60 fps"), "{err}");
+        let err = check_capture(&capture(&["a", "b", "a"], 60.0), path, 60.0).unwrap_err().to_string();
+        assert!(err.contains("clip `a` appears in two separate runs"), "{err}");
+        let err = check_capture(&capture(&[POSED], 60.0), path, 60.0).unwrap_err().to_string();
+        assert!(err.contains("completed poses"), "{err}");
     }
 
     #[test]

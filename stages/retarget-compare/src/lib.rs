@@ -116,13 +116,21 @@ impl Args {
         if self.labels.is_empty() || self.labels.iter().any(|&l| l < 2) || self.draws == 0 {
             return Err(StageError::Config("--labels needs counts of at least 2, and --draws at least 1".into()));
         }
+        if self.q == 0 || self.q > 64 || self.k == 0 || !(self.ridge.is_finite() && self.ridge > 0.0) {
+            return Err(StageError::Config(
+                "--q must be in 1..=64, --k at least 1, --ridge finite and positive".into(),
+            ));
+        }
+        let mut labels = self.labels.clone();
+        labels.sort_unstable();
+        labels.dedup();
         let init = match self.init.as_str() {
             "alignment" => Init::Alignment,
             "pca" => Init::Pca,
             other => return Err(StageError::Config(format!("--init `{other}`: alignment or pca"))),
         };
         Ok(Config {
-            labels: self.labels.clone(),
+            labels,
             draws: self.draws,
             unlabelled: self.unlabelled,
             q: self.q,
@@ -192,6 +200,13 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
     let n = capture.frames();
     let train = 0..(n as f64 * args.train).floor() as usize;
     let test = (n - (n as f64 * args.test).floor() as usize)..n;
+    if test.is_empty() {
+        return Err(StageError::Input(format!(
+            "{}: {n} frames leave no frame to map with --test {}",
+            args.io.capture.display(),
+            args.test
+        )));
+    }
     let rows = compare(&capture.values, capture.width(), &y, truth.controls.len(), train.clone(), test.clone(), &cfg)
         .map_err(|e| StageError::Input(format!("{}: {e}", args.io.capture.display())))?;
     let table: Vec<Comparison> = rows

@@ -4,8 +4,9 @@
 //!
 //! - **Source**: the capture's frames (`positions`: markers per frame), normalised.
 //! - **Target**: the character's controls scaled by their effect on the mesh (the `scales`
-//!   artifact's weights averaged over labels) and reduced by PCA over the corpus and the
-//!   labelled poses ([`reprise_retarget::target`]), as the gplvm stage models a label.
+//!   artifact's weights averaged over labels) and rotated by PCA over the labelled poses
+//!   and any unlabelled ones ([`reprise_retarget::target`]). A control the corpus never
+//!   moves has weight 0 and is held at its mean; the stage warns when the pairs move one.
 //! - **Rows**: every labelled pair (a frame of `pairs`, named by the capture's clip and
 //!   frame, holding the character's pose for it), `--source-frames` other capture frames
 //!   spread evenly over the capture, and `--target-poses` corpus frames spread evenly over
@@ -264,14 +265,33 @@ pub fn run(args: &Args) -> StageResult<Option<Summary>> {
         args.variance,
         args.max_components,
     )
-    .map_err(|e| StageError::Input(format!("{}: the character's poses: {e}", args.io.corpus.display())))?;
+    .map_err(|e| {
+        StageError::Input(format!(
+            "the character's poses ({} labelled in {}, {} from {}): {e}",
+            labelled.len(),
+            args.io.pairs.display(),
+            target_only.len(),
+            args.io.corpus.display()
+        ))
+    })?;
+    for (j, name) in controls.iter().enumerate().filter(|(j, _)| weights[*j] <= 0.0) {
+        let moved = label_poses.chunks_exact(c).any(|p| (p[j] - label_poses[j]).abs() > 0.0);
+        if moved {
+            eprintln!(
+                "retarget-fit: warning: the pairs move `{name}`, which has no weight in {} (the corpus never moves \
+                 it, or it moves no vertex): it is held at its mean",
+                args.io.scales.display()
+            );
+        }
+    }
     let encode = |poses: &[f64]| -> Vec<f64> { poses.chunks_exact(c).flat_map(|p| space.encode(p)).collect() };
     let x: Vec<f64> = labelled.iter().chain(&source_only).flat_map(|&r| capture.row(r).iter().copied()).collect();
     let y = [encode(&label_poses), encode(&corpus_poses)].concat();
     let set = TrainingSet { x: &x, dx: capture.width(), y: &y, dy: space.d(), labelled: labelled.len() };
     let settings = FitSettings {
         q: args.q,
-        k: args.lle_neighbours.max(1),
+        // The alignment's graphs keep the paper's 8 neighbours when the LLE prior is off.
+        k: if args.lle_neighbours > 0 { args.lle_neighbours } else { 8 },
         prior: if args.lle_neighbours > 0 { Prior::Lle } else { Prior::Gaussian },
         init,
         capture_noise,

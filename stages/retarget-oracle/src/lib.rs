@@ -160,6 +160,9 @@ pub fn resolve(
             })
             .collect::<StageResult<_>>()?;
         let c = &controls.controls[control];
+        if c.min.is_nan() || c.max.is_nan() || c.min > c.max {
+            return Err(bad(format!("{at}: the control's range [{}, {}] is empty", c.min, c.max)));
+        }
         out.push(Resolved { control, inputs, gain: r.gain, power: r.power, offset: r.offset, range: (c.min, c.max) });
     }
     Ok(out)

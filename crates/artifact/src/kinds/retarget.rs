@@ -23,6 +23,7 @@
 //! | `missing` | Int64 | capture values treated as unseen |
 //! | `ms` | Float64 | milliseconds the frame's solve took |
 //! | `mesh_error` | Float64, null | RMS vertex distance to the known target pose, the rig's length unit |
+//! | `trained` | Boolean | the frame is a row of the model (labelled or unlabelled): not held out |
 //!
 //! `retarget_comparison`: protocol A, one row per (label count, method).
 //!
@@ -50,8 +51,10 @@ pub const RETARGET_FRAMES: Kind = Kind { name: "retarget_frames", version: 1 };
 pub const RETARGET_COMPARISON: Kind = Kind { name: "retarget_comparison", version: 1 };
 /// Metadata key: the model's settings.
 pub const KEY_RETARGET: &str = "reprise.retarget";
-/// Most latent rows, capture values or target coordinates a model may hold.
-pub const MAX_ROWS: usize = 100_000;
+/// Most latent rows a model may hold (every mapping builds dense kernels over them).
+pub const MAX_ROWS: usize = 4_000;
+/// Most capture values or target coordinates per row.
+pub const MAX_VALUES: usize = 100_000;
 
 /// A latent row's role.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -133,7 +136,8 @@ pub struct Settings {
     pub space: TargetSpace,
     /// $\sigma_c$, capture units.
     pub capture_noise: f64,
-    /// $\sigma_t$, capture units: the RMS step between consecutive capture frames.
+    /// $\sigma_t$, capture units: $\sqrt{s^2 - \sigma_c^2}$ of the RMS step $s$ between
+    /// consecutive capture frames (at least $s/10$; 0: no temporal term).
     pub temporal_noise: f64,
     /// LLE neighbours (0: no LLE prior).
     pub lle_neighbours: usize,
@@ -141,6 +145,54 @@ pub struct Settings {
     pub fit: FitInfo,
     /// The capture's frame rate.
     pub fps: f64,
+}
+
+impl Settings {
+    /// Whether the settings fit together: three capture values per point, one weight, held
+    /// value and mean per control, directions of the coordinates' length, positive finite
+    /// scales, finite kernels and noise levels.
+    ///
+    /// # Errors
+    /// The first relation that does not hold, in words.
+    pub fn check(&self) -> std::result::Result<(), String> {
+        let (dx, dy, c) = (self.source.mean.len(), self.target.mean.len(), self.controls.len());
+        let sp = &self.space;
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        if dx != 3 * self.points.len() {
+            return Err(format!("{dx} capture values for {} points (3 each)", self.points.len()));
+        }
+        if [sp.weights.len(), sp.held.len(), sp.mean.len()].iter().any(|&l| l != c) {
+            return Err(format!("the target space's weights, held values and mean must have one per control ({c})"));
+        }
+        if sp.directions.len() != dy * c {
+            return Err(format!(
+                "{} direction values where {dy} coordinates × {c} controls are expected",
+                sp.directions.len()
+            ));
+        }
+        let scales = [self.source.scale, self.target.scale];
+        if !scales.iter().all(|s| s.is_finite() && *s > 0.0) {
+            return Err(format!("normalisation scales {scales:?} must be finite and positive"));
+        }
+        let all = [
+            &self.source.mean[..],
+            &self.target.mean,
+            &self.source_kernel,
+            &self.target_kernel,
+            &sp.weights,
+            &sp.held,
+            &sp.mean,
+            &sp.directions,
+        ];
+        let noise_ok = self.capture_noise > 0.0
+            && self.capture_noise.is_finite()
+            && self.temporal_noise >= 0.0
+            && self.temporal_noise.is_finite();
+        if !(noise_ok && all.iter().all(|v| finite(v))) {
+            return Err("a value is not finite, or a noise level is not positive".into());
+        }
+        Ok(())
+    }
 }
 
 /// A fitted model.
@@ -199,12 +251,14 @@ impl Retarget {
         let settings: Settings = serde_json::from_str(table.meta(KEY_RETARGET)?)
             .map_err(|e| table.invalid(format!("metadata `{KEY_RETARGET}`: {e}")))?;
         let (dx, dy, q) = (settings.source.mean.len(), settings.target.mean.len(), settings.q);
-        if table.rows() > MAX_ROWS || dx > MAX_ROWS || dy > MAX_ROWS || q == 0 || q > 64 {
+        if table.rows() > MAX_ROWS || dx > MAX_VALUES || dy > MAX_VALUES || q == 0 || q > 64 {
             return Err(table.invalid(format!(
-                "{} rows, {dx} capture values, {dy} coordinates, q = {q}: beyond the limits ({MAX_ROWS}; q in 1..=64)",
+                "{} rows, {dx} capture values, {dy} coordinates, q = {q}: beyond the limits ({MAX_ROWS} rows, \
+                 {MAX_VALUES} values; q in 1..=64)",
                 table.rows()
             )));
         }
+        settings.check().map_err(|m| table.invalid(format!("metadata `{KEY_RETARGET}`: {m}")))?;
         let role = table
             .str("role")?
             .iter()
@@ -243,6 +297,9 @@ impl Retarget {
         };
         let x = gather("x", dx, Role::Target)?;
         let y = gather("y", dy, Role::Source)?;
+        if role.iter().filter(|&&r| r == Role::Labelled).count() < 2 || z.iter().any(|v| !v.is_finite()) {
+            return Err(table.invalid("a model needs at least two labelled rows and finite latents"));
+        }
         Ok(Self { role, clip, frame, z, x, y, settings })
     }
 }
@@ -272,6 +329,8 @@ pub struct MappedFrame {
     pub ms: f64,
     /// RMS vertex distance to the known pose, where one is known.
     pub mesh_error: Option<f64>,
+    /// Whether the frame is a row of the model (not held out).
+    pub trained: bool,
 }
 
 /// Writes the per-frame table atomically.
@@ -284,13 +343,15 @@ pub fn write_frames(path: &Path, rows: &[MappedFrame], provenance: &Provenance) 
         .f64("variance", rows.iter().map(|r| r.variance).collect())
         .i64("missing", rows.iter().map(|r| r.missing).collect())
         .f64("ms", rows.iter().map(|r| r.ms).collect())
-        .f64_opt("mesh_error", rows.iter().map(|r| r.mesh_error).collect());
+        .f64_opt("mesh_error", rows.iter().map(|r| r.mesh_error).collect())
+        .bool("trained", rows.iter().map(|r| r.trained).collect());
     crate::table::write(path, RETARGET_FRAMES, cols, provenance, &[])
 }
 
 /// Reads the per-frame table.
 pub fn read_frames(path: &Path) -> Result<Vec<MappedFrame>> {
     let t = Table::read(path, RETARGET_FRAMES)?;
+    let trained = t.bool("trained")?;
     let (clip, frame, residual, variance, missing, ms, mesh) = (
         t.strings("clip")?,
         t.i64("frame")?,
@@ -309,6 +370,7 @@ pub fn read_frames(path: &Path) -> Result<Vec<MappedFrame>> {
             missing: missing[r],
             ms: ms[r],
             mesh_error: mesh[r],
+            trained: trained[r],
         })
         .collect())
 }
@@ -364,7 +426,7 @@ mod tests {
             x: (0..9).map(|v| f64::from(v) * 0.1).collect(),
             y: (0..6).map(|v| f64::from(v) * -0.2).collect(),
             settings: Settings {
-                points: vec![4, 7, 9],
+                points: vec![4],
                 controls: vec!["jaw".into(), "smile".into()],
                 q: 2,
                 source: norm(3),
@@ -403,6 +465,7 @@ mod tests {
             missing: 10,
             ms: 2.5,
             mesh_error: None,
+            trained: true,
         }];
         let fpath = dir.path().join("f.parquet");
         write_frames(&fpath, &rows, &Provenance::new("test", "0", serde_json::json!({}))).unwrap();
@@ -411,6 +474,21 @@ mod tests {
         let cpath = dir.path().join("c.parquet");
         write_comparison(&cpath, &table, &Provenance::new("test", "0", serde_json::json!({}))).unwrap();
         assert_eq!(read_comparison(&cpath).unwrap(), table);
+    }
+
+    #[test]
+    fn settings_that_do_not_fit_together_are_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.parquet");
+        let mut r = sample();
+        r.settings.points.push(11);
+        r.write(&path, &Provenance::new("test", "0", serde_json::json!({}))).unwrap();
+        let err = Retarget::read(&path).unwrap_err().to_string();
+        assert!(err.contains("3 capture values for 2 points"), "{err}");
+        let mut r = sample();
+        r.settings.space.directions.pop();
+        r.write(&path, &Provenance::new("test", "0", serde_json::json!({}))).unwrap();
+        assert!(Retarget::read(&path).unwrap_err().to_string().contains("direction values"));
     }
 
     #[test]

@@ -26,7 +26,7 @@ fn summarize(s: &reprise_retarget_apply::Summary) {
     let known: Vec<f64> = s.frames.iter().filter_map(|f| f.mesh_error).collect();
     if !known.is_empty() {
         eprintln!("  mesh error: this model {:.4}", known.iter().sum::<f64>() / known.len() as f64);
-        for (name, e) in &s.baselines {
+        for (name, e, _) in &s.baselines {
             eprintln!("  mesh error: {name} {e:.4}");
         }
     }
