@@ -91,6 +91,35 @@ pub enum Init {
     Alignment,
 }
 
+impl Init {
+    /// The start named `alignment` or `pca` (the stages' `--init`).
+    ///
+    /// # Errors
+    /// Any other name, in words.
+    pub fn parse(name: &str) -> Result<Self, String> {
+        match name {
+            "alignment" => Ok(Init::Alignment),
+            "pca" => Ok(Init::Pca),
+            other => Err(format!("--init `{other}`: alignment or pca")),
+        }
+    }
+}
+
+/// The capture system's noise σc as the stages take it (`--capture-noise`): required,
+/// finite and positive, in capture units.
+///
+/// # Errors
+/// None given, or not finite and positive, in words.
+pub fn capture_noise(given: Option<f64>) -> Result<f64, String> {
+    let noise = given
+        .ok_or("--capture-noise is required: the capture system's noise, a standard deviation in capture units")?;
+    if noise.is_finite() && noise > 0.0 {
+        Ok(noise)
+    } else {
+        Err(format!("--capture-noise {noise} must be finite and positive"))
+    }
+}
+
 /// How a model is fitted.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settings {

@@ -9,15 +9,6 @@ use reprise_motion_metrics::quantile;
 
 use crate::{Args, Summary};
 
-fn mean(v: impl Iterator<Item = f64>) -> f64 {
-    let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
-    if n == 0 {
-        0.0
-    } else {
-        s / n as f64
-    }
-}
-
 /// The report.
 pub fn markdown(s: &Summary, settings: &Settings, args: &Args) -> String {
     let mut md = String::new();
@@ -56,7 +47,7 @@ pub fn markdown(s: &Summary, settings: &Settings, args: &Args) -> String {
             "| {name} | {} | {} | {} |",
             fmt(quantile(v, 0.5)),
             fmt(quantile(v, 0.99)),
-            fmt(mean(v.iter().copied()))
+            fmt(crate::mean_where(v, |_| true))
         );
     };
     row(&mut md, "milliseconds (one core)", &ms, &|x| format!("{x:.2}"));

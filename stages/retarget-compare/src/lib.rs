@@ -100,12 +100,7 @@ pub const MAX_FRAMES: usize = 20_000;
 
 impl Args {
     fn config(&self) -> StageResult<Config> {
-        let noise = self.capture_noise.ok_or_else(|| {
-            StageError::Config("--capture-noise is required: the capture system's noise, in capture units".into())
-        })?;
-        if !(noise.is_finite() && noise > 0.0) {
-            return Err(StageError::Config(format!("--capture-noise {noise} must be finite and positive")));
-        }
+        let noise = reprise_retarget::model::capture_noise(self.capture_noise).map_err(StageError::Config)?;
         let share = |v: f64| v.is_finite() && v > 0.0 && v < 1.0;
         if !(share(self.train) && share(self.test) && self.train + self.test <= 1.0) {
             return Err(StageError::Config(format!(
@@ -124,11 +119,7 @@ impl Args {
         let mut labels = self.labels.clone();
         labels.sort_unstable();
         labels.dedup();
-        let init = match self.init.as_str() {
-            "alignment" => Init::Alignment,
-            "pca" => Init::Pca,
-            other => return Err(StageError::Config(format!("--init `{other}`: alignment or pca"))),
-        };
+        let init = Init::parse(&self.init).map_err(StageError::Config)?;
         Ok(Config {
             labels,
             draws: self.draws,

@@ -123,14 +123,7 @@ pub struct Summary {
 
 impl Args {
     fn validate(&self) -> StageResult<(f64, Init)> {
-        let noise = self.capture_noise.ok_or_else(|| {
-            StageError::Config(
-                "--capture-noise is required: the capture system's noise, a standard deviation in capture units".into(),
-            )
-        })?;
-        if !(noise.is_finite() && noise > 0.0) {
-            return Err(StageError::Config(format!("--capture-noise {noise} must be finite and positive")));
-        }
+        let noise = reprise_retarget::model::capture_noise(self.capture_noise).map_err(StageError::Config)?;
         if self.q == 0 || self.q > 64 {
             return Err(StageError::Config(format!("--q {} must be in 1..=64", self.q)));
         }
@@ -140,11 +133,7 @@ impl Args {
         if self.fps.is_some_and(|f| !(f.is_finite() && f > 0.0)) {
             return Err(StageError::Config("--fps must be finite and positive".into()));
         }
-        let init = match self.init.as_str() {
-            "alignment" => Init::Alignment,
-            "pca" => Init::Pca,
-            other => return Err(StageError::Config(format!("--init `{other}`: alignment or pca"))),
-        };
+        let init = Init::parse(&self.init).map_err(StageError::Config)?;
         Ok((noise, init))
     }
 }
