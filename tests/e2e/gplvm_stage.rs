@@ -21,6 +21,12 @@ fn short(p: &Project, iters: usize) {
 fn gplvm_fits_every_label_and_models_reconstruct() {
     let p = Project::dragon_face();
     short(&p, 40);
+    // Labels of more than 450 frames take the sparse GPLVM (60 inducing points), so that
+    // everything downstream runs on both kinds of model.
+    let toml = p
+        .read("pipeline.toml")
+        .replace("heldout_every = 10", "heldout_every = 10\ndense_max_frames = 450\ninducing = 60");
+    p.write("pipeline.toml", &toml);
     let out = p.reprise(&["run", "--to", "gplvm"]).ok();
     assert!(out.contains("gplvm"), "{out}");
     let a = |f: &str| p.path(&format!("artifacts/dragon-face/{f}.parquet"));
@@ -29,6 +35,9 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     assert!(latents.x.iter().all(|x| x.len() == 3 && x.iter().all(|v| v.is_finite())));
     let fits = gplvm::read_fits(&a("gplvm_fits")).unwrap();
     assert_eq!(fits.len(), 8);
+    let sparse: Vec<&str> = fits.iter().filter(|f| f.inducing_points == 60).map(|f| f.label.as_str()).collect();
+    assert!(fits.iter().all(|f| (f.inducing_points == 60) == (f.frames > 450)), "the per-label rule: {fits:?}");
+    assert!(!sparse.is_empty() && sparse.len() < 8, "both kinds of fit: sparse {sparse:?}");
     assert!(fits.iter().all(|f| f.objective < f.initial_objective), "every fit lowers its objective");
     for f in &fits {
         let errors = [
@@ -50,6 +59,13 @@ fn gplvm_fits_every_label_and_models_reconstruct() {
     // through the GP, and its controls through the PCA basis and the unscaling.
     let models = reprise_label_models::load(&a("gplvm_models"), &a("pca_models"), &a("scales")).unwrap();
     assert_eq!(models.models.len(), 8);
+    for m in &models.models {
+        // A sparse model's mean runs over its 60 inducing points; every model keeps its latents.
+        assert_eq!(m.predictor.is_sparse(), sparse.contains(&m.label.as_str()), "{}", m.label);
+        let support = if m.predictor.is_sparse() { 60 } else { m.frames() };
+        assert_eq!(m.predictor.n(), support, "{}", m.label);
+        assert_eq!(m.frames(), latents.label.iter().filter(|l| **l == m.label).count());
+    }
     let coords = pca::read_coords(&a("pca_coords")).unwrap();
     let m = models.require("roar").unwrap();
     let i = latents.label.iter().position(|l| l == "roar").unwrap();
@@ -216,6 +232,22 @@ fn gplvm_bad_input_is_a_clear_error() {
     p.write("pipeline.toml", &toml);
     let err = p.reprise(&["run"]).fails(2);
     assert!(err.contains("--heldout-every"), "{err}");
+    // The dense rule with the sparse fit disabled: a label above it is named, with the way out.
+    let toml = p
+        .read("pipeline.toml")
+        .replace("heldout_every = 1", "heldout_every = 10\ndense_max_frames = 300\nsparse = \"never\"");
+    p.write("pipeline.toml", &toml);
+    let err = p.reprise(&["run"]).fails(2);
+    assert!(
+        err.contains("more than --dense-max-frames 300, and --sparse never") && err.contains("use --sparse auto"),
+        "{err}"
+    );
+    // More inducing points than a label has frames.
+    let toml = p.read("pipeline.toml").replace("sparse = \"never\"", "sparse = \"always\"\ninducing = 5000");
+    p.write("pipeline.toml", &toml);
+    let err = p.reprise(&["run"]).fails(2);
+    assert!(err.contains("fewer than --inducing 5000"), "{err}");
+    assert!(!p.path("artifacts/dragon-face/gplvm_models.parquet").exists(), "nothing half-written");
 }
 
 /// `reprise-transitions` run by hand on the full run's artifacts: a window other than the

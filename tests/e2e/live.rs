@@ -320,6 +320,9 @@ fn tinted(png_bytes: &[u8]) -> usize {
         .count()
 }
 
+/// The longest the page's game may stand still before the browser test gives up on it.
+const STALL: Duration = Duration::from_secs(120);
+
 #[test]
 fn the_game_plays_in_chromium_through_the_page() {
     let p = pipeline();
@@ -357,8 +360,20 @@ fn the_game_plays_in_chromium_through_the_page() {
             b.eval("document.getElementById('new-game').click()").await;
             let mut handled: Option<(String, u64)> = None;
             let mut moved_at = std::time::Instant::now();
+            // The page's game state last seen, and when it last changed: a game that stands
+            // still for STALL (a session the server ended, a page that stopped drawing)
+            // fails the test with the page's status and log instead of hanging it.
+            let (mut last_state, mut changed_at) = (serde_json::Value::Null, std::time::Instant::now());
             loop {
                 let (state, _) = page_state(&mut b).await;
+                if state != last_state {
+                    (last_state, changed_at) = (state.clone(), std::time::Instant::now());
+                } else if changed_at.elapsed() > STALL {
+                    let page = b
+                        .eval("[document.getElementById('status').textContent, document.getElementById('game-status').textContent, document.getElementById('log').textContent].join(' | ')")
+                        .await;
+                    panic!("game {g} stood still for {} s at {state}; the page: {page}", STALL.as_secs());
+                }
                 if state["game"] != g {
                     assert!(moved_at.elapsed().as_secs() < 60, "game {g} never started: {state}");
                     tokio::time::sleep(Duration::from_millis(50)).await;

@@ -76,10 +76,15 @@ fn assemble(
     let bad = |e: reprise_numerics::gplvm::GplvmError| {
         StageError::Input(format!("{}: label `{}`: {e}", paths[0].display(), g.label))
     };
-    let mean = MeanPredictor::from_parts(g.x.clone(), g.kinv_y.clone(), g.q, g.d, hyper).map_err(bad)?;
-    let predictor = Predictor::from_mean(mean, &config).map_err(bad)?;
+    let predictor = if g.is_sparse() {
+        let mean = MeanPredictor::from_parts(g.inducing.clone(), g.kinv_y.clone(), g.q, g.d, hyper).map_err(bad)?;
+        Predictor::from_sparse_mean(mean, &g.x).map_err(bad)?
+    } else {
+        let mean = MeanPredictor::from_parts(g.x.clone(), g.kinv_y.clone(), g.q, g.d, hyper).map_err(bad)?;
+        Predictor::from_mean(mean, &config).map_err(bad)?
+    };
     let map = rig_map(pca, controls, scales, paths[2])?;
-    LatentModel::new(g.label.clone(), predictor, g.offset.clone(), map).map_err(bad)
+    LatentModel::new(g.label.clone(), predictor, g.x.clone(), g.offset.clone(), map).map_err(bad)
 }
 
 /// Refuses model artifacts that do not belong together: `gplvm_models` must have been fit

@@ -48,13 +48,13 @@ impl LibraryParts {
                         x: lat.x[r].clone(),
                     })
                     .collect();
-                if f.len() != m.predictor.n() {
+                if f.len() != m.frames() {
                     return Err(StageError::Input(format!(
                         "{}: label `{}` has {} latent rows but its model {} points; rerun gplvm",
                         latents.display(),
                         m.label,
                         f.len(),
-                        m.predictor.n()
+                        m.frames()
                     )));
                 }
                 Ok(f)

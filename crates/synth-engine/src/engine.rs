@@ -680,7 +680,7 @@ impl<'l, 'a> Synth<'l, 'a> {
         let from = self.cur.target.clone();
         let poly = match kind {
             PathKind::Straight => vec![from, to.to_vec()],
-            PathKind::Graph => graph_path(m.predictor.x(), m.q(), &from, to, self.set.graph_k, self.set.graph_cost),
+            PathKind::Graph => graph_path(m.latents(), m.q(), &from, to, self.set.graph_k, self.set.graph_cost),
         };
         self.approach(&poly, r, min_seconds, what, sink)
     }
@@ -884,7 +884,7 @@ mod tests {
                 x: x[2 * i..2 * i + 2].to_vec(),
             })
             .collect();
-        (LatentModel::new(label.into(), pred, vec![0.0; 3], map).unwrap(), frames)
+        (LatentModel::new(label.into(), pred, x.clone(), vec![0.0; 3], map).unwrap(), frames)
     }
 
     fn script(commands: Vec<Command>, seed: u64) -> Script {

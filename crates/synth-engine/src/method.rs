@@ -264,19 +264,14 @@ pub fn landing(model: &reprise_numerics::gplvm::LatentModel, train_means: &[f64]
         .map(|t| t.iter().zip(&y).map(|(a, b)| (a - b) * (a - b)).sum::<f64>())
         .enumerate()
         .min_by(|a, b| a.1.total_cmp(&b.1))?;
-    let x = model.predictor.x()[point * q..(point + 1) * q].to_vec();
+    let x = model.latents()[point * q..(point + 1) * q].to_vec();
     let latent_distance = reprise_numerics::vector::dist(&x, x2);
     Some(Landing { point, x, latent_distance, pose_distance: sq.sqrt() })
 }
 
 /// The GP means $\mu(x_i)$ at a model's training points (row-major `N × d`).
 pub fn training_means(model: &reprise_numerics::gplvm::LatentModel) -> Vec<f64> {
-    let (q, d) = (model.q(), model.d());
-    let mut out = vec![0.0; model.predictor.n() * d];
-    for (xi, o) in model.predictor.x().chunks_exact(q).zip(out.chunks_exact_mut(d)) {
-        model.predictor.mean(xi, o);
-    }
-    out
+    model.training_means()
 }
 
 #[cfg(test)]

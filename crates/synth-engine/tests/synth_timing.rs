@@ -25,7 +25,7 @@ fn cost_per_frame() {
     let pred = Predictor::new(&x, &y, d, hyper, &LikelihoodConfig::default()).unwrap();
     let dirs: Vec<f64> = (0..d * c).map(|i| ((i * 7919 % 1000) as f64 / 1000.0 - 0.5) * 0.1).collect();
     let map = RigMap::from_pca(&vec![0.0; c], &dirs, &vec![0.0; c], &vec![1.0; c]).unwrap();
-    let model = LatentModel::new("m".into(), pred, vec![0.0; d], map).unwrap();
+    let model = LatentModel::new("m".into(), pred, x.clone(), vec![0.0; d], map).unwrap();
     let frames: Vec<TrainingFrame> = (0..n)
         .map(|i| TrainingFrame { segment: 0, clip: "c".into(), frame: i as i64, x: x[i * q..(i + 1) * q].to_vec() })
         .collect();

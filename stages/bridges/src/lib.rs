@@ -277,16 +277,6 @@ fn pair_seed(seed: u64, from: &str, to: &str) -> u64 {
     seed ^ u64::from_le_bytes(bytes)
 }
 
-/// M2's training outputs $\mu(x_i)$ (centred), the starts' guide.
-fn training_outputs(m: &LatentModel) -> Vec<f64> {
-    let (q, d) = (m.q(), m.d());
-    let mut out = vec![0.0; m.predictor.n() * d];
-    for (xi, o) in m.predictor.x().chunks_exact(q).zip(out.chunks_exact_mut(d)) {
-        m.predictor.mean(xi, o);
-    }
-    out
-}
-
 /// What the stage found.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Outcome {
@@ -366,15 +356,15 @@ fn candidates(m1: &LatentModel, m2: &LatentModel, train2: &[f64], args: &Args, s
     };
     let (mut y1, mut y2) = (vec![0.0; m1.d()], vec![0.0; d2]);
     let mut at_bound = 0;
-    let found: Vec<Candidate> = (0..m1.predictor.n())
+    let found: Vec<Candidate> = (0..m1.frames())
         .step_by(args.stride)
         .map(|i| {
-            let x1 = m1.predictor.x()[i * q1..(i + 1) * q1].to_vec();
+            let x1 = m1.latents()[i * q1..(i + 1) * q1].to_vec();
             let mut p1 = vec![0.0; m1.controls()];
             m1.controls_into(&x1, &mut y1, &mut p1);
             m2.map.project(&p1, &mut y2);
             y2.iter_mut().zip(&m2.offset).for_each(|(y, o)| *y -= o);
-            let found = best_latent(&m2.predictor, &y2, train2, &opts);
+            let found = best_latent(&m2.predictor, &y2, m2.latents(), train2, &opts);
             at_bound += usize::from(found.at_bound);
             let mut p2 = vec![0.0; m2.controls()];
             m2.controls_into(&found.x, &mut vec![0.0; d2], &mut p2);
@@ -440,7 +430,7 @@ pub fn run(args: &Args) -> StageResult<Option<Outcome>> {
         }
     };
     let train: Vec<Option<Vec<f64>>> =
-        models.par_iter().enumerate().map(|(i, m)| used(i).then(|| training_outputs(m))).collect();
+        models.par_iter().enumerate().map(|(i, m)| used(i).then(|| m.training_means())).collect();
     let bar = reprise_stagekit::progress(pairs.len() as u64, "bridges");
     let per_pair: Vec<StageResult<(Vec<Bridge>, PairCount)>> = pairs
         .par_iter()
@@ -560,8 +550,7 @@ fn spread<'a>(x1s: impl Iterator<Item = &'a [f64]>, radius: f64, max: usize) -> 
 fn median_step(m: &LatentModel) -> f64 {
     let q = m.q();
     let mut steps: Vec<f64> = m
-        .predictor
-        .x()
+        .latents()
         .chunks_exact(q)
         .collect::<Vec<_>>()
         .windows(2)

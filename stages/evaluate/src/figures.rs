@@ -267,6 +267,7 @@ fn fit_rows(path: &Path) -> StageResult<Vec<html::FitRow>> {
             connectivity: f.connectivity,
             signal: f.signal,
             connectivity_exact: f.connectivity_exact,
+            inducing: f.inducing_points,
             converged: f.converged,
             stop_reason: f.stop_reason,
             rel_decrease: f.rel_decrease,

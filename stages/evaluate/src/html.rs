@@ -48,7 +48,9 @@ pub struct FitRow {
     pub dynamics: f64,
     pub connectivity: f64,
     pub signal: f64,
-    pub connectivity_exact: f64,
+    pub connectivity_exact: Option<f64>,
+    /// Inducing points of a sparse fit (0: the dense GPLVM).
+    pub inducing: i64,
     /// Whether it converged, and why it stopped.
     pub converged: bool,
     pub stop_reason: String,
@@ -231,13 +233,16 @@ fn fit_table(s: &mut String, fits: &[FitRow]) {
         "<p>{converged} of {} labels converged (mean relative decrease per iteration over the rule's window, and \
          the scaled gradient, both under their tolerances; a fit stopped by the iteration cap is NOT converged). \
          E = −log p(Y|X) + dynamics + connectivity + signal prior, as minimised; <i>exact conn.</i> is the exact \
-         connectivity prior at the same point (the reference for a cheaper path).</p>",
+         connectivity prior at the same point (the reference for a cheaper path; – where it would cost more than \
+         the fit). <i>GP</i>: the dense GPLVM, or the sparse one (DTC) with M inducing points, by the stage's \
+         per-label rule.</p>",
         fits.len()
     );
     let head: Vec<String> = [
         "label",
         "N",
         "d",
+        "GP",
         "path",
         "iterations",
         "evaluations",
@@ -264,6 +269,7 @@ fn fit_table(s: &mut String, fits: &[FitRow]) {
                 text(&esc(&f.label)),
                 num(f.frames.to_string()),
                 num(f.d.to_string()),
+                text(&if f.inducing > 0 { format!("sparse, M = {}", f.inducing) } else { "dense".into() }),
                 text(&esc(&format!("{} ({})", f.path, f.optimizer))),
                 num(esc(&f.iterations)),
                 num(f.evaluations.to_string()),
@@ -273,7 +279,7 @@ fn fit_table(s: &mut String, fits: &[FitRow]) {
                 num(format!("{:.2}", f.dynamics)),
                 num(format!("{:.2}", f.connectivity)),
                 num(format!("{:.2}", f.signal)),
-                num(format!("{:.2}", f.connectivity_exact)),
+                num(f.connectivity_exact.map_or("–".into(), |c| format!("{c:.2}"))),
                 num(format!("{:.1e}", f.rel_decrease)),
                 num(format!("{:.1e}", f.rel_gradient)),
                 text(&esc(&stop)),

@@ -44,7 +44,7 @@ fn main() {
         std::process::exit(2);
     };
     let (n, d, q) = (data.n(), data.d, config.q);
-    let layout = Layout::dense(n, q);
+    let layout = Layout::new(n, q);
     // Mean per-dimension variance of the (centred) PCA coordinates.
     let mean: Vec<f64> = (0..d).map(|j| (0..n).map(|i| data.y[i * d + j]).sum::<f64>() / n as f64).collect();
     let var_y = (0..n * d).map(|k| (data.y[k] - mean[k % d]).powi(2)).sum::<f64>() / (n * d) as f64;

@@ -184,7 +184,7 @@ impl<'a> Checker<'a> {
         let train_data = coords.subset(&train);
         let fit = fit_label(&train_data, config, bar, name)?;
         let map = scaling.rig_map(&scaling.pca_model(&basis, SCALED))?;
-        let model = LatentModel::new(l.label.clone(), fit.predictor.clone(), fit.offset.clone(), map)
+        let model = LatentModel::new(l.label.clone(), fit.predictor.clone(), fit.x.clone(), fit.offset.clone(), map)
             .map_err(|e| numerical("model", &e))?;
         let g = |x: &[f64]| {
             let (mut y, mut p) = (vec![0.0; k], vec![0.0; model.controls()]);
@@ -195,7 +195,7 @@ impl<'a> Checker<'a> {
         let train_y: Vec<f64> = train_data.y.chunks_exact(k).flat_map(centre).collect();
         let opts = ProjectOptions::default();
         let gplvm_rows: Vec<Vec<f64>> =
-            test.iter().map(|&i| g(&best_latent(&fit.predictor, &centre(y(i)), &train_y, &opts).x)).collect();
+            test.iter().map(|&i| g(&best_latent(&fit.predictor, &centre(y(i)), &fit.x, &train_y, &opts).x)).collect();
 
         // 3. PCA with m components: the first m coordinates through the same map.
         let pca_rows = |m: usize| -> Vec<Vec<f64>> {

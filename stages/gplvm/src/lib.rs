@@ -14,6 +14,7 @@
 mod heldout;
 pub mod summary;
 
+use std::collections::HashMap;
 use std::time::Instant;
 
 use clap::Parser;
@@ -63,12 +64,33 @@ pub enum PathKind {
     Subset,
     /// The coarse-graph prior throughout (runs of --connectivity-stride frames as one node).
     Coarse,
-    /// Exact for labels of at most 300 frames, coarse above.
+    /// Exact for labels of at most 300 frames, coarse up to 2,000, the subset prior on
+    /// about 300 rows above.
     Auto,
+}
+
+/// Which labels get the sparse GPLVM (see `Args::inducing_for`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SparseRule {
+    /// Labels of more than --dense-max-frames frames.
+    Auto,
+    /// None: a label of more than --dense-max-frames frames is an error.
+    Never,
+    /// Every label.
+    Always,
 }
 
 /// The latent dimension q when `--q` is not given: the paper's 3.
 pub const DEFAULT_Q: usize = 3;
+
+/// The largest label the dense GPLVM fits by default: the paper trains labels of a few
+/// hundred frames, and the dense fit stays the reference up to here; above, one dense
+/// evaluation costs more than ten sparse ones at the default M (`reprise-bench --sparse`).
+pub const DEFAULT_DENSE_MAX_FRAMES: usize = 1000;
+
+/// Inducing points of a sparse fit by default (GPmat's FGPLVM uses 100 active points).
+pub const DEFAULT_INDUCING: usize = 100;
 
 reprise_stagekit::stage_io! {
     stage: "gplvm", bin: "reprise-gplvm",
@@ -216,6 +238,19 @@ pub struct Args {
     #[arg(long, default_value_t = 3)]
     pub connectivity_stride: usize,
 
+    /// Which labels get the sparse (DTC) GPLVM: `auto` those of more than
+    /// --dense-max-frames frames, `never` none (a larger label is then an error),
+    /// `always` every label.
+    #[arg(long, value_enum, default_value_t = SparseRule::Auto)]
+    pub sparse: SparseRule,
+    /// The largest label `--sparse auto` fits with the dense GPLVM (the paper's; one
+    /// evaluation costs O(N³) time and several N × N matrices).
+    #[arg(long, default_value_t = DEFAULT_DENSE_MAX_FRAMES)]
+    pub dense_max_frames: usize,
+    /// Inducing points M of a sparse fit (one evaluation costs O(N M²)).
+    #[arg(long, default_value_t = DEFAULT_INDUCING)]
+    pub inducing: usize,
+
     /// Held-out check: leave out every K-th frame of each label (0: off).
     #[arg(long, default_value_t = 0)]
     pub heldout_every: usize,
@@ -263,7 +298,35 @@ impl Args {
             },
             optimizer: self.optimizer(),
             whiten: self.whiten,
+            inducing: None,
         }
+    }
+
+    /// The inducing points of a label of `frames` frames under the per-label rule
+    /// (`None`: the dense fit), or why the label cannot be fitted.
+    pub fn inducing_for(&self, label: &str, frames: usize) -> StageResult<Option<usize>> {
+        let sparse = match self.sparse {
+            SparseRule::Never if frames > self.dense_max_frames => {
+                return Err(StageError::Config(format!(
+                    "label `{label}` has {frames} frames, more than --dense-max-frames {}, and --sparse never: \
+                     the dense fit would hold several {frames} × {frames} matrices ({:.1} GB each) and take O(N³) \
+                     per evaluation; use --sparse auto (or raise --dense-max-frames)",
+                    self.dense_max_frames,
+                    (frames * frames * 8) as f64 / 1e9
+                )))
+            }
+            SparseRule::Never => false,
+            SparseRule::Auto => frames > self.dense_max_frames,
+            SparseRule::Always => true,
+        };
+        if sparse && self.inducing > frames {
+            return Err(StageError::Config(format!(
+                "label `{label}` has {frames} frames, fewer than --inducing {}: a sparse fit has at most one \
+                 inducing point per frame; lower --inducing or use --sparse auto",
+                self.inducing
+            )));
+        }
+        Ok(sparse.then_some(self.inducing))
     }
 
     fn optimizer(&self) -> Optimizer {
@@ -288,7 +351,12 @@ impl Args {
 
     fn validate(&self) -> StageResult<()> {
         let pos = |v: f64| v.is_finite() && v > 0.0;
-        let checks: [(bool, &str); 14] = [
+        let checks: [(bool, &str); 16] = [
+            (self.inducing >= 1, "--inducing must be at least 1"),
+            (
+                self.sparse != SparseRule::Auto || self.inducing <= self.dense_max_frames + 1,
+                "--inducing must be at most --dense-max-frames + 1 (the smallest label --sparse auto fits sparse)",
+            ),
             (self.q >= 1, "--q must be at least 1"),
             (self.max_iters >= 1, "--max-iters must be at least 1"),
             ((1..=1000).contains(&self.lbfgs_memory), "--lbfgs-memory must be between 1 and 1000"),
@@ -472,6 +540,11 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
     let labels = gather(&coords, labeled.frames.fps, &args.io.coords)?;
     let mut labels = wiring::only_partition(labels, |l| &l.label, args.io.partition.as_deref(), &args.io.coords)?;
     let config = args.fit_config();
+    // The per-label rule, for every label before any fit starts.
+    let inducing: HashMap<String, Option<usize>> = labels
+        .iter()
+        .map(|l| Ok((l.label.clone(), args.inducing_for(&l.label, l.n())?)))
+        .collect::<StageResult<_>>()?;
     let checker = (args.heldout_every >= 2).then(|| heldout::Checker::open(args, &labeled)).transpose()?;
     // Largest first, so that two workers finish together.
     labels.sort_by_key(|l| std::cmp::Reverse(l.n()));
@@ -484,6 +557,8 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
         labels
             .par_iter()
             .map(|l| {
+                let config = FitConfig { inducing: inducing[&l.label], ..config.clone() };
+                let config = &config;
                 // A fit stops when it converges: the bar counts evaluations, with no total.
                 let bar = reprise_stagekit::counter_in(&multi, &l.label, "objective evaluations");
                 let held_name = format!("{} held-out refit", l.label);
@@ -494,11 +569,11 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
                 let (fit, held) = rayon::join(
                     || {
                         let start = Instant::now();
-                        fit_label(l, &config, &bar, &l.label).map(|f| (f, start.elapsed().as_secs_f64()))
+                        fit_label(l, config, &bar, &l.label).map(|f| (f, start.elapsed().as_secs_f64()))
                     },
                     || {
                         let (c, b) = (checker.as_ref()?, held_bar.as_ref()?);
-                        Some(c.check(l, &config, args.heldout_every, b, &held_name))
+                        Some(c.check(l, config, args.heldout_every, b, &held_name))
                     },
                 );
                 let ((fit, seconds), held) = (fit?, held.transpose()?);
@@ -511,6 +586,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
                     frames: l.n() as i64,
                     d: l.d as i64,
                     q: config.q as i64,
+                    inducing_points: config.inducing.unwrap_or(0) as i64,
                     optimizer: config.optimizer.name().into(),
                     connectivity_path: config.connectivity_path.for_frames(l.n()).name().into(),
                     stage_iterations: fit.stage_iterations.iter().map(|&i| i as i64).collect(),
@@ -522,7 +598,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
                     dynamics: fit.minimised.dynamics,
                     connectivity: fit.minimised.connectivity,
                     signal: fit.minimised.signal,
-                    connectivity_exact: fit.last.connectivity,
+                    connectivity_exact: fit.exact_connectivity.then_some(fit.last.connectivity),
                     grad_norm: fit.info.grad_norm,
                     rel_decrease: fit.info.measures.rel_decrease,
                     rel_gradient: fit.info.measures.rel_gradient,
@@ -581,6 +657,7 @@ pub fn run(args: &Args) -> StageResult<Option<Vec<FitSummary>>> {
             white_variance_used: fit.predictor.white_variance_used(),
             jitter: fit.predictor.jitter_used().added,
             x: fit.x.clone(),
+            inducing: if fit.predictor.is_sparse() { fit.predictor.x().to_vec() } else { vec![] },
             kinv_y: fit.predictor.kinv_y().to_vec(),
             offset: fit.offset.clone(),
         });

@@ -14,10 +14,11 @@ impl fmt::Display for Fits<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
-            "{:<12} {:>6} {:>3} {:>11} {:>6} {:>13} {:>12} {:>10} {:>11} {:>8} {:>8} {:>14} {:>8}",
+            "{:<12} {:>6} {:>3} {:>7} {:>11} {:>6} {:>13} {:>12} {:>10} {:>11} {:>8} {:>8} {:>14} {:>8}",
             "label",
             "frames",
             "d",
+            "GP",
             "iters",
             "evals",
             "objective",
@@ -34,10 +35,11 @@ impl fmt::Display for Fits<'_> {
             let stop = if s.converged { s.stop_reason.clone() } else { format!("NOT {}", s.stop_reason) };
             writeln!(
                 f,
-                "{:<12} {:>6} {:>3} {:>11} {:>6} {:>13.3} {:>12.3} {:>10.3} {:>11.3} {:>8.1e} {:>8.1e} {:>14} {:>8.1}",
+                "{:<12} {:>6} {:>3} {:>7} {:>11} {:>6} {:>13.3} {:>12.3} {:>10.3} {:>11.3} {:>8.1e} {:>8.1e} {:>14} {:>8.1}",
                 s.label,
                 s.frames,
                 s.d,
+                if s.inducing_points > 0 { format!("M={}", s.inducing_points) } else { "dense".into() },
                 stages,
                 s.evaluations,
                 s.objective,
@@ -103,6 +105,7 @@ mod tests {
             frames: 120,
             d: 7,
             q: 3,
+            inducing_points: 0,
             optimizer: "lbfgs".into(),
             connectivity_path: "exact".into(),
             stage_iterations: vec![40, 212],
@@ -114,7 +117,7 @@ mod tests {
             dynamics: 50.0,
             connectivity: 10.0,
             signal: 5.4,
-            connectivity_exact: 10.0,
+            connectivity_exact: Some(10.0),
             grad_norm: 1e-6,
             rel_decrease: 1e-10,
             rel_gradient: 1e-6,

@@ -9,14 +9,19 @@
 //! | `time` | Float64 | seconds from the segment's start (the dynamics prior's input) |
 //! | `x0`, `x1`, … | Float64 | latent coordinates |
 //!
-//! `gplvm_models` — what reconstruction needs, self-contained: per label one row per
-//! training point (`point` = 0, 1, …) with its latent `x0…` and its row of
-//! $A = K^{-1}(Y - \bar y)$ in `a0…` (null beyond the label's PCA dimension), and one row
-//! `point = −1` holding the output offset $\bar y$ in `a0…` (latents null). The columns
-//! `rbf_variance`, `lengthscale`, `white_variance` (optimised $\sigma_f^2, \ell, \sigma_w^2$)
-//! `white_variance_used` (after the floor) and `jitter` (added to the diagonal of $K$)
-//! repeat on every row of a label. The mean
-//! map is $\mu(x) = \bar y + A^\top k(x)$, $k_i(x) = \sigma_f^2e^{-\lVert x-x_i\rVert^2/(2\ell^2)}$.
+//! `gplvm_models` — what reconstruction needs, self-contained. Per label, rows by `role`:
+//! one `offset` row holding the output offset $\bar y$ in `a0…` (latents null); one
+//! `latent` row per training frame (`point` = 0, 1, …, in the order of `gplvm_latents`)
+//! with its latent in `x0…`; and the mean map's *support points*, which carry their row of
+//! weights in `a0…` (null beyond the label's PCA dimension). A dense fit's support points
+//! are its training latents: each `latent` row carries its row of $A = K^{-1}(Y - \bar y)$.
+//! A sparse fit's are its inducing points: `inducing` rows (`point` = 0, 1, …, $M - 1$)
+//! with $u$ in `x0…` and its row of $W = A^{-1}K_{uf}(Y - \bar y)$ in `a0…`, and its
+//! `latent` rows have `a0…` null. The columns `rbf_variance`, `lengthscale`,
+//! `white_variance` (optimised $\sigma_f^2, \ell, \sigma_w^2$), `white_variance_used` (after
+//! the floor) and `jitter` (added to the diagonal of $K$, or of $K_{uu}$) repeat on every
+//! row of a label. The mean map is $\mu(x) = \bar y + A^\top k(x)$ with
+//! $k_i(x) = \sigma_f^2e^{-\lVert x-s_i\rVert^2/(2\ell^2)}$ over the support points $s_i$.
 //!
 //! `gplvm_trace` — per label and optimiser iteration: `label`, `iteration` (1, 2, …),
 //! `value` (objective $E$ at the current point), `grad_norm` ($\lVert\nabla E\rVert_2$),
@@ -30,12 +35,13 @@
 //! |---|---|---|
 //! | `label` | Utf8 | the model |
 //! | `frames`, `d`, `q` | Int64 | training frames $N$, PCA dimension $d$, latent dimension $q$ |
+//! | `inducing_points` | Int64 | $M$ of a sparse (DTC) fit; 0 for the dense fit (the stage's per-label rule chose) |
 //! | `optimizer`, `connectivity_path` | Utf8 | `lbfgs`/`scg`; how the connectivity prior entered (`exact`, `staged`, `subset`, `coarse`) |
 //! | `stage_iterations` | Utf8 | iterations per stage, `"i"` or `"subset+exact"` |
 //! | `iterations`, `evaluations` | Int64 | optimiser iterations; objective evaluations |
 //! | `initial_objective`, `objective` | Float64 | $E$ at the start and at the optimum |
 //! | `neg_log_likelihood`, `dynamics`, `connectivity`, `signal` | Float64 | the terms of $E$ at the optimum |
-//! | `connectivity_exact` | Float64 | the exact connectivity prior at the optimum |
+//! | `connectivity_exact` | Float64, nullable | the exact connectivity prior at the optimum (null above 2,000 frames on the paths that do not minimise it: it would cost more than the fit) |
 //! | `grad_norm`, `rel_decrease`, `rel_gradient` | Float64 | $\lVert\nabla E\rVert_2$; the convergence rule's two measures (`rel_decrease` may be `inf`) |
 //! | `jitter`, `dynamics_jitter` | Float64 | jitter added to $K$ and to the dynamics prior's blocks |
 //! | `converged`, `stop_reason` | Boolean, Utf8 | whether a convergence test stopped the fit, and why it stopped |
@@ -58,11 +64,11 @@ use crate::table::{Columns, Kind, Table};
 /// Kind of the latents table.
 pub const GPLVM_LATENTS: Kind = Kind { name: "gplvm_latents", version: 1 };
 /// Kind of the models table.
-pub const GPLVM_MODELS: Kind = Kind { name: "gplvm_models", version: 1 };
+pub const GPLVM_MODELS: Kind = Kind { name: "gplvm_models", version: 2 };
 /// Kind of the trace table.
 pub const GPLVM_TRACE: Kind = Kind { name: "gplvm_trace", version: 2 };
 /// Kind of the fit summary table.
-pub const GPLVM_FITS: Kind = Kind { name: "gplvm_fits", version: 3 };
+pub const GPLVM_FITS: Kind = Kind { name: "gplvm_fits", version: 4 };
 
 /// Per-frame latent points of every model.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -139,7 +145,10 @@ pub struct GplvmModel {
     pub jitter: f64,
     /// Training latents, row-major `N × q`.
     pub x: Vec<f64>,
-    /// $K^{-1}(Y - \bar y)$, row-major `N × d`.
+    /// A sparse fit's inducing points, row-major `M × q` (empty for a dense fit).
+    pub inducing: Vec<f64>,
+    /// The support points' weights: $K^{-1}(Y - \bar y)$ (row-major `N × d`) for a dense
+    /// fit, $W = A^{-1}K_{uf}(Y - \bar y)$ (row-major `M × d`) for a sparse one.
     pub kinv_y: Vec<f64>,
     /// $\bar y$ (length d).
     pub offset: Vec<f64>,
@@ -150,37 +159,55 @@ impl GplvmModel {
     pub fn n(&self) -> usize {
         self.x.len() / self.q.max(1)
     }
+
+    /// Inducing points M (0 for a dense fit).
+    pub fn m(&self) -> usize {
+        self.inducing.len() / self.q.max(1)
+    }
+
+    /// Whether the model is a sparse fit's (its support points are inducing points).
+    pub fn is_sparse(&self) -> bool {
+        !self.inducing.is_empty()
+    }
 }
+
+/// The `role` of a `gplvm_models` row.
+const OFFSET: &str = "offset";
+const LATENT: &str = "latent";
+const INDUCING: &str = "inducing";
 
 /// Writes the models atomically (all with the same q).
 pub fn write_models(path: &Path, models: &[GplvmModel], provenance: &Provenance) -> Result<()> {
     let q = models.first().map_or(0, |m| m.q);
     let dmax = models.iter().map(|m| m.d).max().unwrap_or(0);
-    let (mut label, mut point) = (Vec::new(), Vec::new());
+    let (mut label, mut role, mut point) = (Vec::new(), Vec::new(), Vec::new());
     let (mut s2, mut ell, mut w, mut wu, mut jit) = (vec![], vec![], vec![], vec![], vec![]);
     let mut xs: Vec<Vec<Option<f64>>> = vec![Vec::new(); q];
     let mut as_: Vec<Vec<Option<f64>>> = vec![Vec::new(); dmax];
     for m in models {
-        for p in -1..m.n() as i64 {
+        // The support points' weights: the latents' (dense) or the inducing points' (sparse).
+        let weights = |i: usize| m.kinv_y.get(i * m.d..(i + 1) * m.d);
+        let latent_weights = |i: usize| if m.is_sparse() { None } else { weights(i) };
+        let latent_rows = (0..m.n()).map(|i| (LATENT, i, Some(&m.x[i * m.q..(i + 1) * m.q]), latent_weights(i)));
+        let inducing_rows = (0..m.m()).map(|i| (INDUCING, i, Some(&m.inducing[i * m.q..(i + 1) * m.q]), weights(i)));
+        let rows =
+            std::iter::once((OFFSET, 0, None, Some(m.offset.as_slice()))).chain(latent_rows).chain(inducing_rows);
+        for (r, i, xrow, arow) in rows {
             label.push(m.label.as_str());
-            point.push(p);
+            role.push(r);
+            point.push(if r == OFFSET { -1 } else { i as i64 });
             s2.push(m.rbf_variance);
             ell.push(m.lengthscale);
             w.push(m.white_variance);
             wu.push(m.white_variance_used);
             jit.push(m.jitter);
-            let (xrow, arow): (Option<&[f64]>, &[f64]) = if p < 0 {
-                (None, &m.offset)
-            } else {
-                let i = p as usize;
-                (Some(&m.x[i * m.q..(i + 1) * m.q]), &m.kinv_y[i * m.d..(i + 1) * m.d])
-            };
             xs.iter_mut().enumerate().for_each(|(k, c)| c.push(xrow.map(|r| r[k])));
-            as_.iter_mut().enumerate().for_each(|(k, c)| c.push(arow.get(k).copied()));
+            as_.iter_mut().enumerate().for_each(|(k, c)| c.push(arow.and_then(|a| a.get(k).copied())));
         }
     }
     let mut cols = Columns::new()
         .str("label", &label)
+        .str("role", &role)
         .i64("point", point)
         .f64("rbf_variance", s2)
         .f64("lengthscale", ell)
@@ -196,11 +223,12 @@ pub fn write_models(path: &Path, models: &[GplvmModel], provenance: &Provenance)
     crate::table::write(path, GPLVM_MODELS, cols, provenance, &[])
 }
 
-/// Reads the models, checking that each label starts with its offset row and numbers its
-/// points 0, 1, … without gaps.
+/// Reads the models, checking that each label starts with its offset row, numbers its
+/// latent and inducing points 0, 1, … without gaps, and gives weights to exactly its
+/// support points (every latent of a dense model, every inducing point of a sparse one).
 pub fn read_models(path: &Path) -> Result<Vec<GplvmModel>> {
     let t = Table::read(path, GPLVM_MODELS)?;
-    let (label, point) = (t.str("label")?, t.i64("point")?);
+    let (label, role, point) = (t.str("label")?, t.str("role")?, t.i64("point")?);
     let (s2, ell, w) = (t.f64("rbf_variance")?, t.f64("lengthscale")?, t.f64("white_variance")?);
     let (wu, jit) = (t.f64("white_variance_used")?, t.f64("jitter")?);
     let xs = numbered(&t, "x").iter().map(|n| t.f64_opt(n)).collect::<Result<Vec<_>>>()?;
@@ -208,7 +236,7 @@ pub fn read_models(path: &Path) -> Result<Vec<GplvmModel>> {
     let mut models: Vec<GplvmModel> = Vec::new();
     for r in 0..t.rows() {
         let arow: Vec<f64> = as_.iter().map_while(|c| c[r]).collect();
-        if point[r] < 0 {
+        if role[r] == OFFSET {
             models.push(GplvmModel {
                 label: label[r].into(),
                 q: xs.len(),
@@ -219,17 +247,31 @@ pub fn read_models(path: &Path) -> Result<Vec<GplvmModel>> {
                 white_variance_used: wu[r],
                 jitter: jit[r],
                 x: vec![],
+                inducing: vec![],
                 kinv_y: vec![],
                 offset: arow,
             });
             continue;
         }
-        let m = models
-            .last_mut()
-            .filter(|m| m.label == label[r] && m.n() as i64 == point[r])
-            .ok_or_else(|| t.invalid(format!("row {r}: point {} of `{}` out of order", point[r], label[r])))?;
+        let m = models.last_mut().filter(|m| m.label == label[r]).ok_or_else(|| {
+            t.invalid(format!("row {r}: a `{}` row of `{}` before its offset row", role[r], label[r]))
+        })?;
+        let (q, list) = (
+            m.q.max(1),
+            match role[r] {
+                LATENT => &mut m.x,
+                INDUCING => &mut m.inducing,
+                other => {
+                    return Err(t.invalid(format!("row {r}: role `{other}`; expected offset, latent or inducing")));
+                }
+            },
+        );
+        let next = list.len() / q;
+        if point[r] != next as i64 {
+            return Err(t.invalid(format!("row {r}: {} point {} of `{}` out of order", role[r], point[r], label[r])));
+        }
         let xrow: Vec<f64> = xs.iter().map_while(|c| c[r]).collect();
-        if xrow.len() != m.q || arow.len() != m.d {
+        if xrow.len() != m.q || !(arow.is_empty() || arow.len() == m.d) {
             return Err(t.invalid(format!(
                 "row {r}: {} latent and {} output values, expected {} and {} (label `{}`)",
                 xrow.len(),
@@ -239,11 +281,18 @@ pub fn read_models(path: &Path) -> Result<Vec<GplvmModel>> {
                 m.label
             )));
         }
-        m.x.extend(xrow);
+        list.extend(xrow);
         m.kinv_y.extend(arow);
     }
-    if let Some(m) = models.iter().find(|m| m.n() == 0) {
-        return Err(t.invalid(format!("label `{}` has no training points", m.label)));
+    for m in &models {
+        let support = if m.is_sparse() { m.m() } else { m.n() };
+        if m.n() == 0 {
+            return Err(t.invalid(format!("label `{}` has no training points", m.label)));
+        }
+        if m.kinv_y.len() != support * m.d {
+            let what = if m.is_sparse() { "its inducing points and none of its latents" } else { "every latent" };
+            return Err(t.invalid(format!("label `{}`: weights `a0…` must be on {what}", m.label)));
+        }
     }
     Ok(models)
 }
@@ -309,6 +358,8 @@ pub struct FitSummary {
     pub d: i64,
     /// Latent dimension q.
     pub q: i64,
+    /// Inducing points M of a sparse fit; 0 for a dense one.
+    pub inducing_points: i64,
     /// The optimiser (`lbfgs`, `scg`).
     pub optimizer: String,
     /// How the connectivity prior entered the fit (`exact`, `staged`, `subset`, `coarse`).
@@ -333,8 +384,9 @@ pub struct FitSummary {
     /// $E_S$, the signal prior on $\sigma_f^2$, at the optimum (0 without it).
     pub signal: f64,
     /// The exact connectivity prior at the optimum (= `connectivity` on the `exact` and
-    /// `staged` paths; the reference for the cheaper ones).
-    pub connectivity_exact: f64,
+    /// `staged` paths; the reference for the cheaper ones; `None` where it was not
+    /// evaluated, film-scale labels).
+    pub connectivity_exact: Option<f64>,
     /// $\lVert\nabla E\rVert_2$ at the optimum.
     pub grad_norm: f64,
     /// The convergence rule's mean relative decrease of $E$ per iteration over its
@@ -394,6 +446,7 @@ pub fn write_fits(path: &Path, rows: &[FitSummary], provenance: &Provenance) -> 
         .i64("frames", i(|r| r.frames))
         .i64("d", i(|r| r.d))
         .i64("q", i(|r| r.q))
+        .i64("inducing_points", i(|r| r.inducing_points))
         .str("optimizer", &rows.iter().map(|r| r.optimizer.as_str()).collect::<Vec<_>>())
         .str("connectivity_path", &rows.iter().map(|r| r.connectivity_path.as_str()).collect::<Vec<_>>())
         .str("stage_iterations", &stage_iterations)
@@ -405,7 +458,7 @@ pub fn write_fits(path: &Path, rows: &[FitSummary], provenance: &Provenance) -> 
         .f64("dynamics", x(|r| r.dynamics))
         .f64("connectivity", x(|r| r.connectivity))
         .f64("signal", x(|r| r.signal))
-        .f64("connectivity_exact", x(|r| r.connectivity_exact))
+        .f64_opt("connectivity_exact", o(|r| r.connectivity_exact))
         .f64("grad_norm", x(|r| r.grad_norm))
         .f64_any("rel_decrease", x(|r| r.rel_decrease))
         .f64("rel_gradient", x(|r| r.rel_gradient))
@@ -434,10 +487,11 @@ pub fn read_fits(path: &Path) -> Result<Vec<FitSummary>> {
         (s("label")?, s("optimizer")?, s("connectivity_path")?, s("stage_iterations")?, s("stop_reason")?);
     let (frames, d, q, iterations, evaluations) =
         (t.i64("frames")?, t.i64("d")?, t.i64("q")?, t.i64("iterations")?, t.i64("evaluations")?);
+    let inducing_points = t.i64("inducing_points")?;
     let (initial_objective, objective, neg_log_likelihood) =
         (t.f64("initial_objective")?, t.f64("objective")?, t.f64("neg_log_likelihood")?);
     let (dynamics, connectivity, signal, connectivity_exact) =
-        (t.f64("dynamics")?, t.f64("connectivity")?, t.f64("signal")?, t.f64("connectivity_exact")?);
+        (t.f64("dynamics")?, t.f64("connectivity")?, t.f64("signal")?, t.f64_opt("connectivity_exact")?);
     let (grad_norm, rel_decrease, rel_gradient) =
         (t.f64("grad_norm")?, t.f64_any("rel_decrease")?, t.f64("rel_gradient")?);
     let (jitter, dynamics_jitter, seconds, converged) =
@@ -467,6 +521,7 @@ pub fn read_fits(path: &Path) -> Result<Vec<FitSummary>> {
                 frames: frames[r],
                 d: d[r],
                 q: q[r],
+                inducing_points: inducing_points[r],
                 optimizer: optimizer[r].clone(),
                 connectivity_path: connectivity_path[r].clone(),
                 stage_iterations,
@@ -528,8 +583,7 @@ mod tests {
         assert_eq!(read_trace(&path).unwrap(), t);
     }
 
-    /// Models of different d and N, and latents, come back as written; a model table whose
-    /// points skip a number is refused naming the row.
+    /// Dense models of different d and N, a sparse one, and latents come back as written.
     #[test]
     fn models_and_latents_round_trip() {
         let dir = tempfile::tempdir().unwrap();
@@ -543,13 +597,22 @@ mod tests {
             white_variance_used: 1e-3,
             jitter: 1e-8,
             x: (0..n * 2).map(|i| i as f64 * 0.1).collect(),
+            inducing: vec![],
             kinv_y: (0..n * d).map(|i| i as f64 - 3.0).collect(),
             offset: (0..d).map(|i| i as f64 * 2.0).collect(),
         };
-        let models = vec![m("a", 3, 4), m("b", 2, 1)];
+        // A sparse model: 4 latents, 2 inducing points carrying the weights.
+        let sparse = GplvmModel {
+            inducing: vec![0.5, -0.5, 0.25, 0.75],
+            kinv_y: (0..2 * 3).map(|i| i as f64 * 0.5).collect(),
+            ..m("s", 4, 3)
+        };
+        let models = vec![m("a", 3, 4), sparse, m("b", 2, 1)];
         let path = dir.path().join("m.parquet");
         write_models(&path, &models, &prov()).unwrap();
-        assert_eq!(read_models(&path).unwrap(), models);
+        let back = read_models(&path).unwrap();
+        assert_eq!(back, models);
+        assert!(back[1].is_sparse() && back[1].m() == 2 && back[1].n() == 4 && !back[0].is_sparse());
         let latents = Latents {
             label: vec!["a".into(), "b".into()],
             segment_id: vec![0, 3],
@@ -574,6 +637,7 @@ mod tests {
             frames: 520,
             d: 5,
             q: 3,
+            inducing_points: 0,
             optimizer: "lbfgs".into(),
             connectivity_path: "coarse".into(),
             stage_iterations: vec![1372],
@@ -585,7 +649,7 @@ mod tests {
             dynamics: 80.0,
             connectivity: 19.0,
             signal: 1.25,
-            connectivity_exact: 19.5,
+            connectivity_exact: Some(19.5),
             grad_norm: 1e-3,
             rel_decrease: 1e-10,
             rel_gradient: 2e-6,
@@ -606,6 +670,8 @@ mod tests {
         };
         let off = FitSummary {
             label: "roar".into(),
+            inducing_points: 100,
+            connectivity_exact: None,
             stage_iterations: vec![12, 34],
             rel_decrease: f64::INFINITY,
             converged: false,

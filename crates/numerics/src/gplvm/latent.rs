@@ -41,12 +41,6 @@ pub struct LatentDensity {
 }
 
 impl LatentDensity {
-    /// The estimate over the training latents of `predictor` with $h = c\,\ell$.
-    pub fn new(predictor: &MeanPredictor, bandwidth_factor: f64) -> Self {
-        let h = bandwidth_factor * predictor.hyper().lengthscale;
-        Self::from_points(predictor.x().to_vec(), predictor.q(), h)
-    }
-
     /// The estimate over `x` (row-major `N × q`) with bandwidth `h > 0`.
     pub fn from_points(x: Vec<f64>, q: usize, h: f64) -> Self {
         assert!(h > 0.0 && h.is_finite(), "bandwidth must be positive");
@@ -183,21 +177,30 @@ pub struct Projection {
 
 /// The latent point minimising $E(x) = \lVert y - \mu(x)\rVert^2$ for the target output
 /// `y` (length $d$, in the predictor's centred output space), by multi-start SCG with
-/// $\nabla E = -2\,(\partial\mu/\partial x)^\top(y - \mu(x))$. `train_y` (row-major
-/// `N × d`, centred like `y`) chooses the nearest starts.
-pub fn best_latent(predictor: &MeanPredictor, y: &[f64], train_y: &[f64], opts: &ProjectOptions) -> Projection {
-    let (q, d, n) = (predictor.q(), predictor.d(), predictor.n());
+/// $\nabla E = -2\,(\partial\mu/\partial x)^\top(y - \mu(x))$. The starts are the
+/// `latents` (row-major `N × q`: the training latents, or any points of the latent space)
+/// whose outputs `train_y` (row-major `N × d`, centred like `y`) are nearest `y`, plus
+/// random ones in their bounding box.
+pub fn best_latent(
+    predictor: &MeanPredictor,
+    y: &[f64],
+    latents: &[f64],
+    train_y: &[f64],
+    opts: &ProjectOptions,
+) -> Projection {
+    let (q, d) = (predictor.q(), predictor.d());
+    let n = latents.len() / q;
     assert_eq!(y.len(), d, "the target has d values");
+    assert_eq!(latents.len(), n * q, "latents must be N × q");
     assert_eq!(train_y.len(), n * d, "train_y must be N × d");
     let mut order: Vec<(f64, usize)> = train_y.chunks_exact(d).map(|r| sq_dist(r, y)).zip(0..).collect();
     let k = opts.nearest.min(n);
     if k > 0 && k < n {
         order.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
     }
-    let mut starts: Vec<Vec<f64>> =
-        order[..k].iter().map(|&(_, i)| predictor.x()[i * q..(i + 1) * q].to_vec()).collect();
+    let mut starts: Vec<Vec<f64>> = order[..k].iter().map(|&(_, i)| latents[i * q..(i + 1) * q].to_vec()).collect();
     let (mut lo, mut hi) = (vec![f64::INFINITY; q], vec![f64::NEG_INFINITY; q]);
-    for xi in predictor.x().chunks_exact(q) {
+    for xi in latents.chunks_exact(q) {
         for c in 0..q {
             lo[c] = lo[c].min(xi[c]);
             hi[c] = hi[c].max(xi[c]);
@@ -341,7 +344,7 @@ mod tests {
         let x_true = [0.37, -0.52];
         p.mean(&x_true, &mut target);
         let opts = ProjectOptions { nearest: 2, random: 3, ..Default::default() };
-        let found = best_latent(&p, &target, &y, &opts);
+        let found = best_latent(&p, &target, p.x(), &y, &opts);
         let scale: f64 = target.iter().map(|v| v * v).sum();
         assert!(found.sq_error < 1e-10 * scale, "{found:?}");
         assert!(found.evaluations > 5);
@@ -361,16 +364,16 @@ mod tests {
         let p = Predictor::new(&x, &y, 1, hyper, &LikelihoodConfig::default()).unwrap();
         let target = [0.05];
         let free = ProjectOptions { nearest: 3, random: 2, ..Default::default() };
-        let far = best_latent(&p, &target, &y, &free);
+        let far = best_latent(&p, &target, p.x(), &y, &free);
         assert!(far.x[0].abs() > 1.5, "the unbounded search leaves the latents: {far:?}");
-        let bounded = best_latent(&p, &target, &y, &ProjectOptions { margin: Some(0.25), ..free });
+        let bounded = best_latent(&p, &target, p.x(), &y, &ProjectOptions { margin: Some(0.25), ..free });
         assert!(bounded.x[0].abs() <= 1.5 + 1e-12 && bounded.x[0].abs() > 1.4, "{bounded:?}");
         assert!(bounded.at_bound && !far.at_bound, "{bounded:?}");
         assert!(bounded.sq_error > far.sq_error);
         // A target the model reaches inside the box is found there, not at the bound.
         let mut inner = [0.0];
         p.mean(&[0.3], &mut inner);
-        let found = best_latent(&p, &inner, &y, &ProjectOptions { margin: Some(0.25), ..free });
+        let found = best_latent(&p, &inner, p.x(), &y, &ProjectOptions { margin: Some(0.25), ..free });
         assert!((found.x[0] - 0.3).abs() < 1e-4 && !found.at_bound, "{found:?}");
     }
 

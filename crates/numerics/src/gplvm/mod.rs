@@ -53,6 +53,7 @@ pub use model::{LatentModel, RigMap};
 pub use objective::{EvalInfo, Objective, SignalPrior};
 pub use params::{Hyper, HyperGrad, Jitter, Layout};
 pub use predict::{MeanPredictor, Predictor};
+pub use sparse::{infer_latent, SparseLikelihood};
 
 /// Why a GPLVM computation failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -113,14 +113,17 @@ impl RigMap {
     }
 }
 
-/// A label's model: the GPLVM predictor, its output offset $\bar y$, the map to rig
-/// controls, and the latent density.
+/// A label's model: the GPLVM predictor, the training latents, its output offset
+/// $\bar y$, the map to rig controls, and the latent density.
 #[derive(Debug, Clone)]
 pub struct LatentModel {
     /// The label.
     pub label: String,
-    /// The GP (mean of centred outputs, variance).
+    /// The GP (mean of centred outputs, variance), over its support points: the training
+    /// latents of a dense fit, the inducing points of a sparse one.
     pub predictor: Predictor,
+    /// The training latents, one row per frame of the label (row-major `N × q`).
+    latents: Vec<f64>,
     /// $\bar y$, added to the GP mean.
     pub offset: Vec<f64>,
     /// PCA coordinates → rig controls.
@@ -133,8 +136,15 @@ pub struct LatentModel {
 pub const DENSITY_BANDWIDTH: f64 = 0.5;
 
 impl LatentModel {
-    /// Assembles a model; the density uses $h = $ [`DENSITY_BANDWIDTH`] $\cdot\,\ell$.
-    pub fn new(label: String, predictor: Predictor, offset: Vec<f64>, map: RigMap) -> Result<Self, GplvmError> {
+    /// Assembles a model from its predictor and training `latents` (row-major `N × q`);
+    /// the density over the latents uses $h = $ [`DENSITY_BANDWIDTH`] $\cdot\,\ell$.
+    pub fn new(
+        label: String,
+        predictor: Predictor,
+        latents: Vec<f64>,
+        offset: Vec<f64>,
+        map: RigMap,
+    ) -> Result<Self, GplvmError> {
         if offset.len() != predictor.d() || map.d() != predictor.d() {
             return Err(GplvmError::Shape(format!(
                 "model `{label}`: GP output d = {}, offset {}, rig map d = {}",
@@ -143,8 +153,37 @@ impl LatentModel {
                 map.d()
             )));
         }
-        let density = LatentDensity::new(&predictor, DENSITY_BANDWIDTH);
-        Ok(Self { label, predictor, offset, map, density })
+        let q = predictor.q();
+        if latents.is_empty() || !latents.len().is_multiple_of(q) {
+            return Err(GplvmError::Shape(format!(
+                "model `{label}`: {} latent values are not rows of q = {q}",
+                latents.len()
+            )));
+        }
+        let h = DENSITY_BANDWIDTH * predictor.hyper().lengthscale;
+        let density = LatentDensity::from_points(latents.clone(), q, h);
+        Ok(Self { label, predictor, latents, offset, map, density })
+    }
+
+    /// The training latents (row-major `N × q`, one row per frame of the label).
+    pub fn latents(&self) -> &[f64] {
+        &self.latents
+    }
+
+    /// The number of training frames $N$.
+    pub fn frames(&self) -> usize {
+        self.latents.len() / self.q()
+    }
+
+    /// The GP means $\mu(x_i)$ at the training latents (centred PCA coordinates,
+    /// row-major `N × d`), $O(N\cdot S(q + d))$ for $S$ support points.
+    pub fn training_means(&self) -> Vec<f64> {
+        let (q, d) = (self.q(), self.d());
+        let mut out = vec![0.0; self.frames() * d];
+        for (xi, o) in self.latents.chunks_exact(q).zip(out.chunks_exact_mut(d)) {
+            self.predictor.mean(xi, o);
+        }
+        out
     }
 
     /// Latent dimension $q$.
@@ -233,7 +272,7 @@ mod tests {
         let (x, ys) = random_problem(n, d, q, 9);
         let hyper = Hyper { rbf_variance: 1.0, lengthscale: 0.9, white_variance: 0.01 };
         let pred = Predictor::new(&x, &ys, d, hyper, &LikelihoodConfig::default()).unwrap();
-        let model = LatentModel::new("m".into(), pred, vec![0.3, -0.2], map).unwrap();
+        let model = LatentModel::new("m".into(), pred, x.clone(), vec![0.3, -0.2], map).unwrap();
         let at = [0.1, 0.4];
         let (mut g, mut jac) = (vec![0.0; c], vec![0.0; c * q]);
         model.controls_jacobian(&at, &mut g, &mut jac);

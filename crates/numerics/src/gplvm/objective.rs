@@ -1,10 +1,10 @@
 //! The MAP objective $E = -\log p(Y\mid X,\theta) - \psi_D(X) - \psi_C(X)$ over the flat
-//! parameter vector of [`Layout`] ($X$ row-major, the sparse fit's inducing points, then
+//! parameter vector of [`Layout`] ($X$ row-major, then
 //! $\log\sigma_f^2, \log\ell, \log\sigma_w^2$), in the shape [`crate::scg::scg`] wants.
 //!
 //! The likelihood is the dense one ([`Likelihood`]) or the sparse DTC one
-//! ([`SparseLikelihood`], over $M$ inducing points that are parameters too), with the same
-//! white-variance floors. Only the likelihood and the optional [`SignalPrior`] depend on
+//! ([`SparseLikelihood`], over $M$ inducing points tied to $M$ of the latents), with the
+//! same white-variance floors. Only the likelihood and the optional [`SignalPrior`] depend on
 //! the hyperparameters; each prior is optional.
 
 use super::likelihood::Floor;
@@ -72,7 +72,9 @@ impl SignalPrior {
 #[derive(Debug)]
 enum Data {
     Dense(Box<Likelihood>),
-    Sparse(SparseLikelihood, LikelihoodConfig),
+    /// The sparse likelihood with its inducing points tied to these rows of $X$ (GPmat's
+    /// `fixInducing`): $U = X_S$, no parameters of their own.
+    Sparse(SparseLikelihood, LikelihoodConfig, Vec<usize>),
 }
 
 /// Likelihood plus optional priors, evaluated together.
@@ -93,25 +95,28 @@ impl Objective {
         dynamics: Option<DynamicsPrior>,
         connectivity: Option<ConnectivityPrior>,
     ) -> Result<Self, GplvmError> {
-        let layout = Layout::dense(likelihood.n(), likelihood.q());
+        let layout = Layout::new(likelihood.n(), likelihood.q());
         Self::with_priors(layout, Data::Dense(Box::new(likelihood)), dynamics, connectivity)
     }
 
-    /// The sparse objective: the DTC `likelihood` over `inducing` points (parameters of
-    /// the [`Layout`]), its white variance floored by `config` as the dense one's is.
+    /// The sparse objective: the DTC `likelihood` with its inducing points tied to the
+    /// latents of `rows` ($U = X_S$; $\partial E/\partial U$ adds into those rows'
+    /// gradient), its white variance floored by `config` as the dense one's is.
     pub fn sparse(
         likelihood: SparseLikelihood,
-        inducing: usize,
+        rows: Vec<usize>,
         config: LikelihoodConfig,
         dynamics: Option<DynamicsPrior>,
         connectivity: Option<ConnectivityPrior>,
     ) -> Result<Self, GplvmError> {
         let (n, q) = (likelihood.n(), likelihood.q());
-        if inducing == 0 || inducing > n {
-            return Err(GplvmError::Shape(format!("{inducing} inducing points for {n} latent points: 1 to {n}")));
+        if rows.is_empty() || rows.len() > n || rows.iter().any(|&r| r >= n) {
+            return Err(GplvmError::Shape(format!(
+                "{} inducing rows for {n} latent points: 1 to {n}, each below {n}",
+                rows.len()
+            )));
         }
-        let layout = Layout { n, q, m: inducing };
-        Self::with_priors(layout, Data::Sparse(likelihood, config), dynamics, connectivity)
+        Self::with_priors(Layout::new(n, q), Data::Sparse(likelihood, config, rows), dynamics, connectivity)
     }
 
     fn with_priors(
@@ -193,9 +198,15 @@ impl Objective {
                 gh.copy_from_slice(&e.grad_hyper_log(&hyper).to_array());
                 e
             }
-            Data::Sparse(l, config) => {
-                let (gx, gu) = gxu.split_at_mut(nq);
-                sparse_eval(l, config, layout.x(params), layout.u(params), &hyper, gx, gu, gh)?
+            Data::Sparse(l, config, rows) => {
+                let (q, x) = (layout.q, layout.x(params));
+                let u: Vec<f64> = rows.iter().flat_map(|&r| x[r * q..(r + 1) * q].iter().copied()).collect();
+                let mut gu = vec![0.0; u.len()];
+                let e = sparse_eval(l, config, x, &u, &hyper, &mut gxu[..nq], &mut gu, gh)?;
+                for (k, &r) in rows.iter().enumerate() {
+                    gxu[r * q..(r + 1) * q].iter_mut().zip(&gu[k * q..(k + 1) * q]).for_each(|(g, d)| *g += d);
+                }
+                e
             }
         };
         let (x, gx) = (layout.x(params), &mut gxu[..nq]);
@@ -328,9 +339,10 @@ mod tests {
         }
     }
 
-    /// The sparse objective's full gradient (latents, inducing points, log hyperparameters,
-    /// every prior) against central differences, above and below the white-variance floor;
-    /// and with the inducing points at the latents, its value is the dense objective's.
+    /// The sparse objective's full gradient (latents, some of them the inducing points, log
+    /// hyperparameters, every prior) against central differences, above and below the
+    /// white-variance floor; and with every latent an inducing point, its value is the
+    /// dense objective's.
     #[test]
     fn the_sparse_objective_matches_differences_and_the_dense_one() {
         let (n, d, q) = (27, 5, 3);
@@ -339,10 +351,10 @@ mod tests {
         let seg: Vec<usize> = (0..n).map(|i| i / 9).collect();
         let dp = DynamicsParams { lengthscale: 2.0, white_variance: 1e-2, weight: 0.5, ..Default::default() };
         let config = LikelihoodConfig { white_floor: 0.05, ..LikelihoodConfig::default() };
-        let u: Vec<f64> = x.chunks_exact(q).step_by(3).flatten().copied().collect();
+        let rows: Vec<usize> = (0..n).step_by(3).collect();
         let mut obj = Objective::sparse(
             SparseLikelihood::new(&y, d, q).unwrap(),
-            u.len() / q,
+            rows,
             config,
             Some(DynamicsPrior::new(&times, &seg, q, dp).unwrap()),
             Some(ConnectivityPrior::new(n, q, ConnectivityParams { weight: 0.3, ..Default::default() }).unwrap()),
@@ -352,8 +364,7 @@ mod tests {
         .unwrap();
         // σw² = 0.02 is below the relative floor 0.05 σf² = 0.045; 0.08 is above it.
         for white in [0.02, 0.08] {
-            let p =
-                obj.layout().pack_sparse(&x, &u, &Hyper { rbf_variance: 0.9, lengthscale: 1.1, white_variance: white });
+            let p = obj.layout().pack(&x, &Hyper { rbf_variance: 0.9, lengthscale: 1.1, white_variance: white });
             let mut g = vec![0.0; p.len()];
             obj.evaluate(&p, &mut g);
             assert!(obj.last().error.is_none(), "{:?}", obj.last().error);
@@ -365,12 +376,14 @@ mod tests {
         }
         let dense_config = LikelihoodConfig { jitter: crate::gplvm::Jitter::NONE, ..config };
         let mut dense = Objective::new(Likelihood::new(&y, d, q, dense_config).unwrap(), None, None).unwrap();
-        let mut sparse = Objective::sparse(SparseLikelihood::new(&y, d, q).unwrap(), n, config, None, None).unwrap();
+        let all: Vec<usize> = (0..n).collect();
+        let mut sparse = Objective::sparse(SparseLikelihood::new(&y, d, q).unwrap(), all, config, None, None).unwrap();
         let h = Hyper { rbf_variance: 0.9, lengthscale: 1.1, white_variance: 0.08 };
-        let (pd, ps) = (dense.layout().pack(&x, &h), sparse.layout().pack_sparse(&x, &x, &h));
+        let (pd, ps) = (dense.layout().pack(&x, &h), sparse.layout().pack(&x, &h));
         let (vd, vs) = (dense.evaluate(&pd, &mut vec![0.0; pd.len()]), sparse.evaluate(&ps, &mut vec![0.0; ps.len()]));
         assert!((vd - vs).abs() < 1e-5 * vd.abs(), "dense {vd} vs sparse {vs}");
-        assert!(Objective::sparse(SparseLikelihood::new(&y, d, q).unwrap(), n + 1, config, None, None).is_err());
+        let beyond = vec![0, n];
+        assert!(Objective::sparse(SparseLikelihood::new(&y, d, q).unwrap(), beyond, config, None, None).is_err());
     }
 
     /// A non-finite input is NaN (it stops the optimisers) with a zero gradient and a

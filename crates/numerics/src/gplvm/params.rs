@@ -182,42 +182,35 @@ impl std::fmt::Debug for Scratch {
     }
 }
 
-/// The flat parameter vector of the MAP fit, length $(N + M)q + 3$:
+/// The flat parameter vector of the MAP fit, length $Nq + 3$:
 ///
-/// `[x_{0,0}, …, x_{N−1,q−1}, u_{0,0}, …, u_{M−1,q−1}, log σ_f², log ℓ, log σ_w²]`
+/// `[x_{0,0}, …, x_{N−1,q−1}, log σ_f², log ℓ, log σ_w²]`
 ///
-/// i.e. $X$ row-major (frame by frame), then the sparse fit's $M$ inducing points $U$
-/// (none for the dense fit, $M = 0$), then the log hyperparameters. Gradients use the same
-/// layout.
+/// i.e. $X$ row-major (frame by frame), then the log hyperparameters. (A sparse fit's
+/// inducing points are tied to latents, so they add no parameters.) Gradients use the
+/// same layout.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Layout {
     /// Number of latent points $N$.
     pub n: usize,
     /// Latent dimension $q$.
     pub q: usize,
-    /// Inducing points $M$ (0: the dense fit).
-    pub m: usize,
 }
 
 impl Layout {
-    /// The dense fit's layout: no inducing points.
-    pub fn dense(n: usize, q: usize) -> Self {
-        Self { n, q, m: 0 }
+    /// The layout of $N$ latent points in $q$ dimensions.
+    pub fn new(n: usize, q: usize) -> Self {
+        Self { n, q }
     }
 
-    /// Total length $(N + M)q + 3$.
+    /// Total length $Nq + 3$.
     pub fn len(&self) -> usize {
         self.hyper_offset() + 3
     }
 
-    /// Where the log hyperparameters start, $(N + M)q$.
+    /// Where the log hyperparameters start, $Nq$.
     pub fn hyper_offset(&self) -> usize {
-        (self.n + self.m) * self.q
-    }
-
-    /// The inducing points $U$ (row-major $M\times q$; empty for the dense fit).
-    pub fn u<'a>(&self, params: &'a [f64]) -> &'a [f64] {
-        &params[self.n * self.q..self.hyper_offset()]
+        self.n * self.q
     }
 
     /// Never empty (the three hyperparameters are always there).
@@ -241,18 +234,11 @@ impl Layout {
         Hyper::from_log([params[o], params[o + 1], params[o + 2]])
     }
 
-    /// The flat vector for `x` and `hyper` (the dense fit's).
+    /// The flat vector for `x` and `hyper`.
     pub fn pack(&self, x: &[f64], hyper: &Hyper) -> Vec<f64> {
-        self.pack_sparse(x, &[], hyper)
-    }
-
-    /// The flat vector for `x`, the inducing points `u` and `hyper`.
-    pub fn pack_sparse(&self, x: &[f64], u: &[f64], hyper: &Hyper) -> Vec<f64> {
         assert_eq!(x.len(), self.n * self.q, "x must be N × q");
-        assert_eq!(u.len(), self.m * self.q, "u must be M × q");
         let mut p = Vec::with_capacity(self.len());
         p.extend_from_slice(x);
-        p.extend_from_slice(u);
         p.extend_from_slice(&hyper.to_log());
         p
     }
@@ -272,14 +258,9 @@ mod tests {
         }
         let g = HyperGrad { rbf_variance: 1.0, lengthscale: 2.0, white_variance: 3.0 }.to_log(&h);
         assert_eq!(g.to_array(), [2.5, 0.6, 3e-3]);
-        let layout = Layout::dense(2, 3);
+        let layout = Layout::new(2, 3);
         let p = layout.pack(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0], &h);
-        assert_eq!(p.len(), 9);
-        let sparse = Layout { n: 2, q: 3, m: 1 };
-        let s = sparse.pack_sparse(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0], &[7.0, 8.0, 9.0], &h);
-        assert_eq!((s.len(), sparse.hyper_offset()), (12, 9));
-        assert_eq!(sparse.u(&s), &[7.0, 8.0, 9.0]);
-        assert_eq!(sparse.hyper(&s), layout.hyper(&p));
+        assert_eq!((p.len(), layout.hyper_offset()), (9, 6));
         assert_eq!(layout.x(&p), &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
         assert!((layout.hyper(&p).lengthscale - 0.3).abs() < 1e-15);
         assert!(Hyper { white_variance: -1e-3, ..h }.check().is_err());

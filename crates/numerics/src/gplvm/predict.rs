@@ -20,7 +20,9 @@ use super::kernel::{columns, exp_nonpositive, rbf_lower, rbf_vector, sq_dist};
 use super::params::{cholesky_with_jitter, JitterUsed};
 use super::{GplvmError, Hyper, LikelihoodConfig};
 
-/// The posterior mean map and its Jacobian; needs only $X$, $K^{-1}Y$ and $\theta$.
+/// The posterior mean map and its Jacobian; needs only the support points $X$ (the
+/// training latents, or a sparse fit's inducing points), their weights $K^{-1}Y$ (or
+/// $W$) and $\theta$.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeanPredictor {
     q: usize,
@@ -45,7 +47,7 @@ impl MeanPredictor {
         Ok(Self { q, d, x, kinv_y, hyper })
     }
 
-    /// Number of training points $N$.
+    /// Number of support points (training points $N$, or inducing points $M$).
     pub fn n(&self) -> usize {
         self.x.len() / self.q
     }
@@ -65,7 +67,7 @@ impl MeanPredictor {
         &self.hyper
     }
 
-    /// The training latents (row-major `N × q`).
+    /// The support points (row-major `N × q`): the training latents, or the inducing points.
     pub fn x(&self) -> &[f64] {
         &self.x
     }
@@ -146,12 +148,26 @@ fn factor_k(
     Ok((chol, jitter))
 }
 
-/// A fitted model's full predictor: the mean map plus the Cholesky factor of $K$ for the
-/// variance. Dereferences to [`MeanPredictor`].
+/// What the predictive variance is computed from.
+#[derive(Debug, Clone)]
+enum VarianceFactor {
+    /// The lower Cholesky factor $L$ of $K$ at the training latents:
+    /// $v = \sigma_f^2 - \lVert L^{-1}k_*\rVert^2$, $O(N^2)$.
+    Dense(Mat<f64>),
+    /// DTC (`sparse`): with $K_{uu} = LL^\top$, $V = L^{-1}K_{uf}$ and
+    /// $B = \sigma^2I + VV^\top = L_BL_B^\top$ (so $A = \sigma^2K_{uu} + K_{uf}K_{fu} = LBL^\top$),
+    /// $v = \sigma_f^2 - \lVert a\rVert^2 + \sigma^2\lVert L_B^{-1}a\rVert^2$ with
+    /// $a = L^{-1}k(U, x_*)$, $O(M^2)$.
+    Sparse { l_uu: Mat<f64>, l_b: Mat<f64> },
+}
+
+/// A fitted model's full predictor: the mean map plus what the variance needs. The mean
+/// runs over the model's *support points*: the training latents of a dense fit, the
+/// inducing points of a sparse one ([`super::sparse`]). Dereferences to [`MeanPredictor`].
 #[derive(Debug, Clone)]
 pub struct Predictor {
     mean: MeanPredictor,
-    chol: Mat<f64>,
+    variance: VarianceFactor,
     jitter: JitterUsed,
     white_used: f64,
 }
@@ -163,31 +179,41 @@ impl Deref for Predictor {
     }
 }
 
+/// `y` (row-major `N × d`) as a matrix, after checking its shape.
+fn output_matrix(y: &[f64], d: usize) -> Result<Mat<f64>, GplvmError> {
+    if d == 0 || y.is_empty() || !y.len().is_multiple_of(d) {
+        return Err(GplvmError::Shape(format!("y has {} values, not N × d with d = {d}", y.len())));
+    }
+    Ok(Mat::<f64>::from_fn(y.len() / d, d, |i, j| y[i * d + j]))
+}
+
+/// A matrix as a row-major vector.
+fn row_major(a: &Mat<f64>) -> Vec<f64> {
+    (0..a.nrows()).flat_map(|i| (0..a.ncols()).map(move |j| (i, j))).map(|(i, j)| a[(i, j)]).collect()
+}
+
 impl Predictor {
     /// Factors $K = K^{rbf} + (\sigma_w^2 + j)I$ at the training latents `x` (row-major
     /// `N × q`) with the same jitter policy and white floor as the likelihood, and
     /// precomputes $K^{-1}Y$ for `y` (row-major `N × d`).
     pub fn new(x: &[f64], y: &[f64], d: usize, hyper: Hyper, config: &LikelihoodConfig) -> Result<Self, GplvmError> {
         hyper.check()?;
-        if d == 0 || y.is_empty() || !y.len().is_multiple_of(d) {
-            return Err(GplvmError::Shape(format!("y has {} values, not N × d with d = {d}", y.len())));
-        }
-        let n = y.len() / d;
+        let mut a = output_matrix(y, d)?;
+        let n = a.nrows();
         if x.is_empty() || !x.len().is_multiple_of(n) {
             return Err(GplvmError::Shape(format!("x has {} values, not N × q with N = {n}", x.len())));
         }
         let q = x.len() / n;
         let white = config.white(&hyper).0;
         let (chol, jitter) = factor_k(x, n, q, &hyper, white, config)?;
-        let mut a = Mat::<f64>::from_fn(n, d, |i, j| y[i * d + j]);
         triangular_solve::solve_lower_triangular_in_place(chol.as_ref(), a.as_mut(), config.par);
         triangular_solve::solve_upper_triangular_in_place(chol.transpose(), a.as_mut(), config.par);
-        let kinv_y: Vec<f64> = (0..n).flat_map(|i| (0..d).map(move |j| (i, j))).map(|(i, j)| a[(i, j)]).collect();
+        let kinv_y = row_major(&a);
         if kinv_y.iter().any(|v| !v.is_finite()) {
             return Err(GplvmError::NonFinite("K⁻¹Y"));
         }
         let mean = MeanPredictor::from_parts(x.to_vec(), kinv_y, q, d, hyper)?;
-        Ok(Self { mean, chol, jitter, white_used: white })
+        Ok(Self { mean, variance: VarianceFactor::Dense(chol), jitter, white_used: white })
     }
 
     /// The full predictor of a stored mean map: refactors $K$ at its latents (with the
@@ -198,10 +224,71 @@ impl Predictor {
         let hyper = *mean.hyper();
         let white = config.white(&hyper).0;
         let (chol, jitter) = factor_k(&mean.x, n, q, &hyper, white, config)?;
-        Ok(Self { mean, chol, jitter, white_used: white })
+        Ok(Self { mean, variance: VarianceFactor::Dense(chol), jitter, white_used: white })
     }
 
-    /// Jitter added to the diagonal of $K$.
+    /// The DTC predictor of a sparse fit (Lawrence 2007; [`super::sparse`]): latents `x`
+    /// (`N × q`), inducing points `u` (`M × q`), outputs `y` (`N × d`). The mean is
+    /// $\mu(x_*) = k(x_*, U)^\top W$ with $W = A^{-1}K_{uf}Y$, a [`MeanPredictor`] over
+    /// $U$: reconstruction costs $O(M(q + d))$. The white variance is floored by `config`
+    /// as the fit's was.
+    ///
+    /// # Errors
+    /// [`GplvmError::Shape`] for wrong shapes or inducing points the fit refuses
+    /// ([`super::sparse::check_inducing`]), or matrices that will not factor.
+    pub fn sparse(
+        x: &[f64],
+        u: &[f64],
+        y: &[f64],
+        d: usize,
+        hyper: Hyper,
+        config: &LikelihoodConfig,
+    ) -> Result<Self, GplvmError> {
+        hyper.check()?;
+        let y = output_matrix(y, d)?;
+        let n = y.nrows();
+        if x.is_empty() || !x.len().is_multiple_of(n) {
+            return Err(GplvmError::Shape(format!("x has {} values, not N × q with N = {n}", x.len())));
+        }
+        let q = x.len() / n;
+        let white = config.white(&hyper).0;
+        let SparseFactors { l_uu, l_b, v } = sparse_factors(x, u, q, &hyper, white)?;
+        // W = A⁻¹K_uf Y = L⁻ᵀB⁻¹VY.
+        let mut w = &v * &y;
+        triangular_solve::solve_lower_triangular_in_place(l_b.as_ref(), w.as_mut(), Par::Seq);
+        triangular_solve::solve_upper_triangular_in_place(l_b.transpose(), w.as_mut(), Par::Seq);
+        triangular_solve::solve_upper_triangular_in_place(l_uu.transpose(), w.as_mut(), Par::Seq);
+        let w = row_major(&w);
+        if w.iter().any(|v| !v.is_finite()) {
+            return Err(GplvmError::NonFinite("A⁻¹K_uf Y"));
+        }
+        let mean = MeanPredictor::from_parts(u.to_vec(), w, q, d, hyper)?;
+        let jitter = JitterUsed { added: super::sparse::JITTER * hyper.rbf_variance, retries: 0 };
+        Ok(Self { mean, variance: VarianceFactor::Sparse { l_uu, l_b }, jitter, white_used: white })
+    }
+
+    /// The full predictor of a stored sparse mean map (over the inducing points, with the
+    /// stored $W$) and the training latents `x` it was fitted at: refactors $K_{uu}$ and $A$
+    /// for the variance, $O(NM^2)$. `mean`'s hyperparameters carry the white variance the
+    /// fit used.
+    pub fn from_sparse_mean(mean: MeanPredictor, x: &[f64]) -> Result<Self, GplvmError> {
+        let hyper = *mean.hyper();
+        let q = mean.q();
+        if x.is_empty() || !x.len().is_multiple_of(q) {
+            return Err(GplvmError::Shape(format!("x has {} values, not N × q with q = {q}", x.len())));
+        }
+        let white = hyper.white_variance;
+        let SparseFactors { l_uu, l_b, .. } = sparse_factors(x, mean.x(), q, &hyper, white)?;
+        let jitter = JitterUsed { added: super::sparse::JITTER * hyper.rbf_variance, retries: 0 };
+        Ok(Self { mean, variance: VarianceFactor::Sparse { l_uu, l_b }, jitter, white_used: white })
+    }
+
+    /// Whether this is a sparse (DTC) predictor, whose support points are inducing points.
+    pub fn is_sparse(&self) -> bool {
+        matches!(self.variance, VarianceFactor::Sparse { .. })
+    }
+
+    /// Jitter added to the diagonal of $K$ (of $K_{uu}$ for a sparse predictor).
     pub fn jitter_used(&self) -> JitterUsed {
         self.jitter
     }
@@ -211,23 +298,51 @@ impl Predictor {
         self.white_used
     }
 
-    /// The lower Cholesky factor of $K$.
-    pub fn cholesky(&self) -> faer::MatRef<'_, f64> {
-        self.chol.as_ref()
-    }
-
-    /// $v(x_*) = \sigma_f^2 - \lVert L^{-1}k_*\rVert^2$, plus $\sigma_w^2$ if `with_noise`
-    /// (the variance of a new observation rather than of the latent function).
+    /// $v(x_*)$ (see [`VarianceFactor`]'s forms), plus $\sigma_w^2$ if `with_noise` (the
+    /// variance of a new observation rather than of the latent function).
     pub fn variance(&self, x_star: &[f64], with_noise: bool) -> f64 {
         assert_eq!(x_star.len(), self.q(), "x* must have q values");
-        let n = self.n();
-        let mut k = Mat::<f64>::zeros(n, 1);
+        let mut k = Mat::<f64>::zeros(self.n(), 1);
         rbf_vector(x_star, self.x(), self.hyper(), k.col_as_slice_mut(0));
-        triangular_solve::solve_lower_triangular_in_place(self.chol.as_ref(), k.as_mut(), Par::Seq);
-        let kk: f64 = k.col_as_slice(0).iter().map(|v| v * v).sum();
+        let mut solve_norm = |l: &Mat<f64>| {
+            triangular_solve::solve_lower_triangular_in_place(l.as_ref(), k.as_mut(), Par::Seq);
+            k.col_as_slice(0).iter().map(|v| v * v).sum::<f64>()
+        };
+        let explained = match &self.variance {
+            VarianceFactor::Dense(chol) => solve_norm(chol),
+            // a = L⁻¹k*, then L_B⁻¹a in place.
+            VarianceFactor::Sparse { l_uu, l_b } => solve_norm(l_uu) - self.white_used * solve_norm(l_b),
+        };
         let prior = self.hyper().rbf_variance + if with_noise { self.white_used } else { 0.0 };
-        (prior - kk).max(0.0)
+        (prior - explained).max(0.0)
     }
+}
+
+/// What a sparse predictor is built from (see [`VarianceFactor::Sparse`]).
+struct SparseFactors {
+    /// $L$, the lower factor of $K_{uu}$.
+    l_uu: Mat<f64>,
+    /// $L_B$, the lower factor of $B = \sigma^2I + VV^\top$.
+    l_b: Mat<f64>,
+    /// $V = L^{-1}K_{uf}$.
+    v: Mat<f64>,
+}
+
+/// The [`SparseFactors`] of latents `x` and inducing points `u` (both with `q` columns),
+/// white variance `white`.
+fn sparse_factors(x: &[f64], u: &[f64], q: usize, hyper: &Hyper, white: f64) -> Result<SparseFactors, GplvmError> {
+    super::sparse::check_inducing(u, q, x.len() / q, hyper)?;
+    let (kuu, mut v) = (super::sparse::k_uu(u, q, hyper), super::sparse::k_uf(u, x, q, hyper));
+    let factor = |m: &Mat<f64>, what: &str| {
+        m.llt(faer::Side::Lower).map(|l| l.L().to_owned()).map_err(|_| {
+            GplvmError::Shape(format!("{what} will not factor: do inducing points collapse onto each other?"))
+        })
+    };
+    let l_uu = factor(&kuu, "K_uu")?;
+    triangular_solve::solve_lower_triangular_in_place(l_uu.as_ref(), v.as_mut(), Par::Seq);
+    let mut b = &v * v.transpose();
+    (0..b.nrows()).for_each(|i| b[(i, i)] += white);
+    Ok(SparseFactors { l_b: factor(&b, "B = σ²I + VVᵀ")?, l_uu, v })
 }
 
 #[cfg(test)]

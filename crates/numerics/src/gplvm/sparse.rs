@@ -27,7 +27,8 @@
 //! (ψ-statistics), and its dynamics form is a different model.
 
 use faer::linalg::solvers::Solve;
-use faer::{Mat, Side};
+use faer::linalg::triangular_solve;
+use faer::{Mat, Par, Side};
 
 use super::kernel::sq_dist;
 use super::latent::{best_latent, ProjectOptions, Projection};
@@ -98,51 +99,53 @@ impl SparseLikelihood {
         if x.len() != n * q || u.len() != m * q || m == 0 || grad_x.len() != x.len() || grad_u.len() != u.len() {
             return Err(GplvmError::Shape(format!("{n} latents and {m} inducing points of {q} dimensions expected")));
         }
-        if m > n {
-            return Err(GplvmError::Shape(format!("{m} inducing points for {n} latent points: at most one per point")));
-        }
         let (sf2, ell2, s2) = (hyper.rbf_variance, hyper.lengthscale * hyper.lengthscale, hyper.white_variance);
-        let k = |a: &[f64], b: &[f64]| sf2 * (-0.5 * sq_dist(a, b) / ell2).exp();
         fn row(v: &[f64], i: usize, q: usize) -> &[f64] {
             &v[i * q..(i + 1) * q]
         }
+        check_inducing(u, q, n, hyper)?;
         let jitter = JITTER * sf2;
-        // Coinciding inducing points make K_uu singular but for the jitter: the fit would
-        // carry a duplicate that explains nothing, so they are refused by name.
-        let tiny = (COINCIDE * hyper.lengthscale).powi(2);
-        for i in 0..m {
-            if let Some(j) = (0..i).find(|&j| sq_dist(row(u, i, q), row(u, j, q)) < tiny) {
-                return Err(GplvmError::Shape(format!(
-                    "inducing points {j} and {i} coincide (closer than {COINCIDE} length scales): they collapse onto each other"
-                )));
-            }
-        }
-        let kuu = Mat::from_fn(m, m, |i, j| k(row(u, i, q), row(u, j, q)) + if i == j { jitter } else { 0.0 });
-        let kuf = Mat::from_fn(m, n, |i, j| k(row(u, i, q), row(x, j, q)));
-        let a = &kuu * s2 + &kuf * kuf.transpose();
+        let (kuu, kuf) = (k_uu(u, q, hyper), k_uf(u, x, q, hyper));
         let collapse = || {
             GplvmError::Shape(
                 "the inducing points' kernel will not factor: do inducing points collapse onto each other?".into(),
             )
         };
-        let la = a.llt(Side::Lower).map_err(|_| collapse())?;
-        let lu = kuu.llt(Side::Lower).map_err(|_| collapse())?;
-        let logdet = |l: &faer::linalg::solvers::Llt<f64>| (0..m).map(|i| 2.0 * l.L()[(i, i)].ln()).sum::<f64>();
-        let b = &kuf * &self.y;
-        let w = la.solve(&b);
-        let btw: f64 = (0..m).flat_map(|i| (0..d).map(move |j| (i, j))).map(|(i, j)| b[(i, j)] * w[(i, j)]).sum();
-        let log_c = (n - m) as f64 * s2.ln() + logdet(&la) - logdet(&lu);
+        // The stable form (as GPflow's SGPR): K_uu = LLᵀ, V = L⁻¹K_uf, B = σ²I + VVᵀ, so
+        // A = LBLᵀ, log|A| − log|K_uu| = log|B|, and with Ŵ = B⁻¹VY = LᵀW every term
+        // below is formed at B's moderate scale before L⁻ᵀ… L⁻¹ is applied once.
+        let l = kuu.llt(Side::Lower).map_err(|_| collapse())?.L().to_owned();
+        let mut v = kuf.clone();
+        triangular_solve::solve_lower_triangular_in_place(l.as_ref(), v.as_mut(), Par::Seq);
+        let mut bmat = &v * v.transpose();
+        (0..m).for_each(|i| bmat[(i, i)] += s2);
+        let lb = bmat.llt(Side::Lower).map_err(|_| collapse())?;
+        let logdet_b = (0..m).map(|i| 2.0 * lb.L()[(i, i)].ln()).sum::<f64>();
+        let vy = &v * &self.y;
+        let what = lb.solve(&vy);
+        let btw: f64 = (0..m).flat_map(|i| (0..d).map(move |j| (i, j))).map(|(i, j)| vy[(i, j)] * what[(i, j)]).sum();
+        let log_c = (n - m) as f64 * s2.ln() + logdet_b;
         let fit = self.yy - btw;
         let value =
             0.5 * d as f64 * log_c + fit / (2.0 * s2) + 0.5 * (n * d) as f64 * (2.0 * std::f64::consts::PI).ln();
 
-        let identity = Mat::<f64>::identity(m, m);
-        let a_inv = la.solve(&identity);
-        let kuu_inv = lu.solve(&identity);
-        let h = &a_inv * (0.5 * d as f64) + (&w * w.transpose()) * (0.5 / s2);
-        let g_uu = &h * s2 - &kuu_inv * (0.5 * d as f64);
-        let g_uf = (&h * &kuf) * 2.0 - (&w * self.y.transpose()) * (1.0 / s2);
-        let tr_hk: f64 = (0..m).flat_map(|i| (0..m).map(move |j| (i, j))).map(|(i, j)| h[(i, j)] * kuu[(j, i)]).sum();
+        // ∂E/∂K_uu = L⁻ᵀGL⁻¹ with G = (D/2)(σ²B⁻¹ − I) + ½ŴŴᵀ, and
+        // ∂E/∂K_uf = L⁻ᵀR with R = D·B⁻¹V − σ⁻²Ŵ(Y − VᵀŴ)ᵀ.
+        let b_inv = lb.solve(Mat::<f64>::identity(m, m));
+        let half_d = 0.5 * d as f64;
+        let mut g = &b_inv * (half_d * s2) + (&what * what.transpose()) * 0.5;
+        (0..m).for_each(|i| g[(i, i)] -= half_d);
+        let resid = &self.y - v.transpose() * &what;
+        let mut g_uf = (&b_inv * &v) * d as f64 - (&what * resid.transpose()) * (1.0 / s2);
+        let lt = l.transpose();
+        triangular_solve::solve_upper_triangular_in_place(lt, g_uf.as_mut(), Par::Seq);
+        triangular_solve::solve_upper_triangular_in_place(lt, g.as_mut(), Par::Seq);
+        let mut g_uu = g.transpose().to_owned();
+        triangular_solve::solve_upper_triangular_in_place(lt, g_uu.as_mut(), Par::Seq);
+        // tr(HK_uu) = (D/2)tr(B⁻¹) + ‖Ŵ‖²/(2σ²).
+        let tr_b_inv: f64 = (0..m).map(|i| b_inv[(i, i)]).sum();
+        let w_sq: f64 = (0..m).flat_map(|i| (0..d).map(move |j| (i, j))).map(|(i, j)| what[(i, j)].powi(2)).sum();
+        let tr_hk = half_d * tr_b_inv + w_sq / (2.0 * s2);
         let d_s2 = 0.5 * d as f64 * (n - m) as f64 / s2 + tr_hk - fit / (2.0 * s2 * s2);
 
         // Through the kernel: ∂k(a, b)/∂a = k (b − a)/ℓ², ∂k/∂σf² = k/σf², ∂k/∂ℓ = k|a − b|²/ℓ³.
@@ -186,35 +189,50 @@ impl SparseLikelihood {
     }
 }
 
-impl SparseLikelihood {
-    /// The DTC posterior mean $\mu(x_*) = k(x_*, U)^\top W$, $W = A^{-1}K_{uf}Y$: a
-    /// [`MeanPredictor`] over the inducing points, so reconstruction costs $O(M(q + D))$.
-    ///
-    /// # Errors
-    /// As [`SparseLikelihood::evaluate`].
-    pub fn predictor(&self, x: &[f64], u: &[f64], hyper: &Hyper) -> Result<MeanPredictor, GplvmError> {
-        let (n, d, q) = (self.n(), self.y.ncols(), self.q);
-        let m = u.len() / q;
-        // Validates the shapes and the inducing points as an evaluation does.
-        self.evaluate(x, u, hyper, &mut vec![0.0; n * q], &mut vec![0.0; m * q])?;
-        let k = |a: &[f64], b: &[f64]| hyper.rbf_variance * (-0.5 * sq_dist(a, b) / hyper.lengthscale.powi(2)).exp();
-        let kuf = Mat::from_fn(m, n, |i, j| k(&u[i * q..(i + 1) * q], &x[j * q..(j + 1) * q]));
-        let kuu = Mat::from_fn(m, m, |i, j| {
-            k(&u[i * q..(i + 1) * q], &u[j * q..(j + 1) * q]) + if i == j { JITTER * hyper.rbf_variance } else { 0.0 }
-        });
-        let a = &kuu * hyper.white_variance + &kuf * kuf.transpose();
-        let w = a
-            .llt(Side::Lower)
-            .map_err(|_| GplvmError::Shape("the inducing points' kernel will not factor".into()))?
-            .solve(&kuf * &self.y);
-        let w: Vec<f64> = (0..m).flat_map(|i| (0..d).map(move |j| (i, j))).map(|(i, j)| w[(i, j)]).collect();
-        MeanPredictor::from_parts(u.to_vec(), w, q, d, *hyper)
+/// Refuses inducing points the fit cannot use: none, more than the `n` latent points, or
+/// two closer than [`COINCIDE`] length scales (they would make $K_{uu}$ singular but for the
+/// jitter, a duplicate that explains nothing).
+pub(crate) fn check_inducing(u: &[f64], q: usize, n: usize, hyper: &Hyper) -> Result<(), GplvmError> {
+    let m = u.len() / q;
+    if m == 0 || u.len() != m * q {
+        return Err(GplvmError::Shape(format!("{} inducing values are not points of {q} dimensions", u.len())));
     }
+    if m > n {
+        return Err(GplvmError::Shape(format!("{m} inducing points for {n} latent points: at most one per point")));
+    }
+    let tiny = (COINCIDE * hyper.lengthscale).powi(2);
+    let row = |i: usize| &u[i * q..(i + 1) * q];
+    for i in 0..m {
+        if let Some(j) = (0..i).find(|&j| sq_dist(row(i), row(j)) < tiny) {
+            return Err(GplvmError::Shape(format!(
+                "inducing points {j} and {i} coincide (closer than {COINCIDE} length scales): they collapse onto each other"
+            )));
+        }
+    }
+    Ok(())
 }
 
-/// The latent point of a new pose `y` (x* for y*) under a sparse model's `predictor`: the
-/// minimiser of $\lVert y - \mu(x)\rVert^2$ ([`best_latent`]), started from the inducing
-/// points whose predicted poses are nearest `y`.
+/// $K_{uu} = k(U, U) + jI$ with $j$ = [`JITTER`] $\cdot\,\sigma_f^2$ (`M × M`).
+pub(crate) fn k_uu(u: &[f64], q: usize, hyper: &Hyper) -> Mat<f64> {
+    let m = u.len() / q;
+    let jitter = JITTER * hyper.rbf_variance;
+    let mut k = k_uf(u, u, q, hyper);
+    (0..m).for_each(|i| k[(i, i)] += jitter);
+    k
+}
+
+/// $K_{uf} = k(U, X)$ (`M × N`), the RBF part only.
+pub(crate) fn k_uf(u: &[f64], x: &[f64], q: usize, hyper: &Hyper) -> Mat<f64> {
+    let ell2 = hyper.lengthscale * hyper.lengthscale;
+    Mat::from_fn(u.len() / q, x.len() / q, |i, j| {
+        hyper.rbf_variance * (-0.5 * sq_dist(&u[i * q..(i + 1) * q], &x[j * q..(j + 1) * q]) / ell2).exp()
+    })
+}
+
+/// The latent point of a new pose `y` (x* for y*, centred like the model's outputs) under
+/// `predictor`: the minimiser of $\lVert y - \mu(x)\rVert^2$ ([`best_latent`]), started
+/// from the support points (a sparse model's inducing points) whose predicted poses are
+/// nearest `y`. $O(M(q + d))$ per evaluation.
 pub fn infer_latent(predictor: &MeanPredictor, y: &[f64], opts: &ProjectOptions) -> Projection {
     let (q, d) = (predictor.q(), predictor.d());
     let mut at = vec![0.0; d];
@@ -226,13 +244,13 @@ pub fn infer_latent(predictor: &MeanPredictor, y: &[f64], opts: &ProjectOptions)
             at.clone()
         })
         .collect();
-    best_latent(predictor, y, &outputs, opts)
+    best_latent(predictor, y, predictor.x(), &outputs, opts)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gplvm::{Jitter, Likelihood, LikelihoodConfig};
+    use crate::gplvm::{Jitter, Likelihood, LikelihoodConfig, Predictor};
 
     /// 12 points on a curve in 3-D, their 2-D latents, and 5 inducing points among them.
     fn problem() -> (Vec<f64>, Vec<f64>, Vec<f64>) {
@@ -312,13 +330,45 @@ mod tests {
         let t: Vec<f64> = (0..40).map(|i| -1.5 + 3.0 * f64::from(i) / 39.0).collect();
         let y: Vec<f64> = t.iter().flat_map(|&s| [s.sin(), s.cos(), 0.4 * s]).collect();
         let u: Vec<f64> = t.iter().step_by(5).copied().collect();
-        let lik = SparseLikelihood::new(&y, 3, 1).unwrap();
         let hyper = Hyper { rbf_variance: 1.0, lengthscale: 0.6, white_variance: 1e-4 };
-        let p = lik.predictor(&t, &u, &hyper).unwrap();
+        let config = LikelihoodConfig { white_floor: 0.0, ..LikelihoodConfig::default() };
+        let p = Predictor::sparse(&t, &u, &y, 3, hyper, &config).unwrap();
         assert_eq!(p.n(), 8, "the predictor is over the inducing points");
         for j in [3, 17, 31] {
             let found = infer_latent(&p, &y[3 * j..3 * j + 3], &ProjectOptions::default());
             assert!((found.x[0] - t[j]).abs() < 0.02, "pose {j}: latent {} vs {}", found.x[0], t[j]);
+        }
+    }
+
+    #[test]
+    fn the_sparse_predictor_at_the_latents_is_the_dense_one_and_reloads_unchanged() {
+        let (y, x, u) = problem();
+        let hyper = Hyper { rbf_variance: 1.1, lengthscale: 0.8, white_variance: 0.02 };
+        let config = LikelihoodConfig { jitter: Jitter::NONE, white_floor: 0.0, ..LikelihoodConfig::default() };
+        let dense = Predictor::new(&x, &y, 3, hyper, &config).unwrap();
+        let sparse = Predictor::sparse(&x, &x, &y, 3, hyper, &config).unwrap();
+        assert!(sparse.is_sparse() && !dense.is_sparse());
+        let (mut a, mut b) = (vec![0.0; 3], vec![0.0; 3]);
+        for xs in [[0.1, 0.2], [-0.7, 0.0], [2.0, -1.0]] {
+            dense.mean(&xs, &mut a);
+            sparse.mean(&xs, &mut b);
+            a.iter().zip(&b).for_each(|(a, b)| assert!((a - b).abs() < 1e-5, "mean {a} vs {b}"));
+            let (vd, vs) = (dense.variance(&xs, true), sparse.variance(&xs, true));
+            assert!((vd - vs).abs() < 1e-5, "variance at {xs:?}: {vd} vs {vs}");
+        }
+        // Fewer inducing points: the variance grows away from them and stays in [0, σf² + σ²].
+        let few = Predictor::sparse(&x, &u, &y, 3, hyper, &config).unwrap();
+        let near = few.variance(&u[..2], false);
+        let far = few.variance(&[5.0, 5.0], false);
+        assert!(near < 0.1 * hyper.rbf_variance && (far - hyper.rbf_variance).abs() < 1e-9, "{near} {far}");
+        // Stored (U, W, θ with the white variance used) and reloaded with the latents: the same.
+        let stored = MeanPredictor::from_parts(few.x().to_vec(), few.kinv_y().to_vec(), 2, 3, hyper).unwrap();
+        let again = Predictor::from_sparse_mean(stored, &x).unwrap();
+        for xs in [[0.1, 0.2], [0.9, -0.5]] {
+            assert!((again.variance(&xs, true) - few.variance(&xs, true)).abs() < 1e-12);
+            few.mean(&xs, &mut a);
+            again.mean(&xs, &mut b);
+            assert_eq!(a, b);
         }
     }
 
