@@ -91,8 +91,10 @@ impl Browser {
             msg["sessionId"] = json!(self.session);
         }
         self.ws.send(Message::Text(msg.to_string().into())).await.unwrap();
+        // One deadline for the answer, however many events arrive before it.
+        let deadline = tokio::time::Instant::now() + Duration::from_secs(60);
         loop {
-            let m = tokio::time::timeout(Duration::from_secs(60), self.ws.next())
+            let m = tokio::time::timeout_at(deadline, self.ws.next())
                 .await
                 .unwrap_or_else(|_| panic!("{method}: no answer in 60 s"))
                 .expect("DevTools open")

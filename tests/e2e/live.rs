@@ -331,153 +331,151 @@ fn the_game_plays_in_chromium_through_the_page() {
     p.write("game.toml", &game);
     let world = World::load(&Paths::in_dir(&p.path("artifacts/dragon-face")), Tuning::default()).unwrap();
     let file = GameFile::parse(&game, &world.labels).unwrap();
-    // Each reaction's label (every script of a reaction in this file goes to one label).
-    let label_of = |event: &str| -> String {
-        let e = Event::ALL.into_iter().find(|e| e.name() == event).unwrap();
-        file.scripts(e)[0].steps.iter().find_map(|s| s.command.label()).unwrap().to_string()
-    };
     let shots =
         std::env::var_os("REPRISE_SCREENSHOTS").map(std::path::PathBuf::from).unwrap_or_else(|| p.path("shots"));
     std::fs::create_dir_all(&shots).unwrap();
     let server = serve(p, 4);
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build().unwrap();
-    rt.block_on(async {
-        let Some(mut b) = Browser::start().await else {
-            eprintln!("SKIPPED: no chromium on PATH (apt-get install chromium)");
-            return;
-        };
-        b.open(&format!("http://{}/", server.addr)).await;
-        assert!(b.wait_for("Number(document.body.dataset.frames || 0) > 24", 60.0).await, "the page draws frames");
-        let systems: Vec<String> =
-            serde_json::from_value(b.eval("[...document.querySelectorAll('.view h2')].map(h => h.textContent)").await)
-                .unwrap();
-        assert_eq!(systems[0], "reprise", "{systems:?}");
-        let crossfade = systems.iter().position(|s| s == "crossfade").unwrap();
-        // (event, reached by reprise, reached by the crossfade) for every reaction.
-        let mut seen: Vec<(String, bool, bool)> = Vec::new();
-        let mut outcomes = Vec::new();
-        for g in 1..=8 {
-            b.eval("document.getElementById('new-game').click()").await;
-            let mut handled: Option<(String, u64)> = None;
-            let mut moved_at = std::time::Instant::now();
-            // The page's game state last seen, and when it last changed: a game that stands
-            // still for STALL (a session the server ended, a page that stopped drawing)
-            // fails the test with the page's status and log instead of hanging it.
-            let (mut last_state, mut changed_at) = (serde_json::Value::Null, std::time::Instant::now());
-            loop {
-                let (state, _) = page_state(&mut b).await;
-                if state != last_state {
-                    (last_state, changed_at) = (state.clone(), std::time::Instant::now());
-                } else if changed_at.elapsed() > STALL {
-                    let page = b
+    // However the page or the browser stalls, the test ends (about 2 minutes alone).
+    rt.block_on(async { tokio::time::timeout(Duration::from_secs(900), play(&world, &file, &server, &shots)).await })
+        .expect("the browser test finishes within 15 minutes");
+}
+
+/// [`the_game_plays_in_chromium_through_the_page`]'s games, in the browser.
+async fn play(world: &World, file: &GameFile, server: &Server, shots: &std::path::Path) {
+    // Each reaction's label (every script of a reaction in this file goes to one label).
+    let label_of = |event: &str| -> String {
+        let e = Event::ALL.into_iter().find(|e| e.name() == event).unwrap();
+        file.scripts(e)[0].steps.iter().find_map(|s| s.command.label()).unwrap().to_string()
+    };
+    let Some(mut b) = Browser::start().await else {
+        eprintln!("SKIPPED: no chromium on PATH (apt-get install chromium)");
+        return;
+    };
+    b.open(&format!("http://{}/", server.addr)).await;
+    assert!(b.wait_for("Number(document.body.dataset.frames || 0) > 24", 60.0).await, "the page draws frames");
+    let systems: Vec<String> =
+        serde_json::from_value(b.eval("[...document.querySelectorAll('.view h2')].map(h => h.textContent)").await)
+            .unwrap();
+    assert_eq!(systems[0], "reprise", "{systems:?}");
+    let crossfade = systems.iter().position(|s| s == "crossfade").unwrap();
+    // (event, reached by reprise, reached by the crossfade) for every reaction.
+    let mut seen: Vec<(String, bool, bool)> = Vec::new();
+    let mut outcomes = Vec::new();
+    for g in 1..=8 {
+        b.eval("document.getElementById('new-game').click()").await;
+        let mut handled: Option<(String, u64)> = None;
+        let mut moved_at = std::time::Instant::now();
+        // The page's game state last seen, and when it last changed: a game that stands
+        // still for STALL (a session the server ended, a page that stopped drawing)
+        // fails the test with the page's status and log instead of hanging it.
+        let (mut last_state, mut changed_at) = (serde_json::Value::Null, std::time::Instant::now());
+        loop {
+            let (state, _) = page_state(&mut b).await;
+            if state != last_state {
+                (last_state, changed_at) = (state.clone(), std::time::Instant::now());
+            } else if changed_at.elapsed() > STALL {
+                let page = b
                         .eval("[document.getElementById('status').textContent, document.getElementById('game-status').textContent, document.getElementById('log').textContent].join(' | ')")
                         .await;
-                    panic!("game {g} stood still for {} s at {state}; the page: {page}", STALL.as_secs());
-                }
-                if state["game"] != g {
-                    assert!(moved_at.elapsed().as_secs() < 60, "game {g} never started: {state}");
-                    tokio::time::sleep(Duration::from_millis(50)).await;
-                    continue;
-                }
-                let reaction =
-                    (state["reaction"][0].as_str().unwrap().to_string(), state["reaction"][2].as_u64().unwrap());
-                if handled.as_ref() != Some(&reaction) {
-                    // Wait for the character to show the reaction's label, or for the game to
-                    // move on (the character's move ends its pondering).
-                    let want = label_of(&reaction.0);
-                    let (mut by_reprise, mut by_crossfade) = (false, false);
-                    let end = std::time::Instant::now() + Duration::from_secs(12);
-                    while std::time::Instant::now() < end && !(by_reprise && by_crossfade) {
-                        let (now, labels) = page_state(&mut b).await;
-                        by_reprise |= labels[0] == want;
-                        by_crossfade |= labels[crossfade] == want;
-                        if now["reaction"][2] != reaction.1 {
-                            break;
-                        }
-                        tokio::time::sleep(Duration::from_millis(50)).await;
-                    }
-                    seen.push((reaction.0.clone(), by_reprise, by_crossfade));
-                    handled = Some(reaction);
-                    if seen.len() == 4 {
-                        let png = b.screenshot(&shots.join("game-midway.png")).await;
-                        assert!(tinted(&png) > 20_000, "the characters are drawn: {} tinted pixels", tinted(&png));
-                    }
-                    continue;
-                }
-                match state["turn"].as_str().unwrap() {
-                    "over" => {
-                        outcomes.push(state["outcome"].as_str().unwrap().to_string());
+                panic!("game {g} stood still for {} s at {state}; the page: {page}", STALL.as_secs());
+            }
+            if state["game"] != g {
+                assert!(moved_at.elapsed().as_secs() < 60, "game {g} never started: {state}");
+                tokio::time::sleep(Duration::from_millis(50)).await;
+                continue;
+            }
+            let reaction = (state["reaction"][0].as_str().unwrap().to_string(), state["reaction"][2].as_u64().unwrap());
+            if handled.as_ref() != Some(&reaction) {
+                // Wait for the character to show the reaction's label, or for the game to
+                // move on (the character's move ends its pondering).
+                let want = label_of(&reaction.0);
+                let (mut by_reprise, mut by_crossfade) = (false, false);
+                let end = std::time::Instant::now() + Duration::from_secs(12);
+                while std::time::Instant::now() < end && !(by_reprise && by_crossfade) {
+                    let (now, labels) = page_state(&mut b).await;
+                    by_reprise |= labels[0] == want;
+                    by_crossfade |= labels[crossfade] == want;
+                    if now["reaction"][2] != reaction.1 {
                         break;
                     }
-                    "player" => {
-                        // The player takes a winning square if there is one, else the first free.
-                        let board: Vec<String> = serde_json::from_value(state["board"].clone()).unwrap();
-                        let free: Vec<usize> = (0..9).filter(|&i| board[i] == ".").collect();
-                        let wins = |i: usize| {
-                            let mut b2 = board.clone();
-                            b2[i] = "X".into();
-                            [[0, 1, 2], [3, 4, 5], [6, 7, 8], [0, 3, 6], [1, 4, 7], [2, 5, 8], [0, 4, 8], [2, 4, 6]]
-                                .iter()
-                                .any(|l| l.iter().all(|&j| b2[j] == "X"))
-                        };
-                        let cell = free.iter().copied().find(|&i| wins(i)).unwrap_or(free[0]);
-                        // The page answers with the new state. On a loaded machine (the whole
-                        // suite beside it) a click can land before the page enables the
-                        // square: it is clicked again, up to 30 s in all.
-                        let js = format!("JSON.parse(document.body.dataset.game).board[{cell}] === 'X'");
-                        let mut marked = false;
-                        for _ in 0..6 {
-                            b.eval(&format!("document.querySelector('#game button[data-cell=\"{cell}\"]').click()"))
-                                .await;
-                            if b.wait_for(&js, 5.0).await {
-                                marked = true;
-                                break;
-                            }
-                        }
-                        moved_at = std::time::Instant::now();
-                        let log = b.eval("document.getElementById('log').textContent").await;
-                        assert!(marked, "square {cell} is marked; the page's log: {log}");
-                    }
-                    _ => tokio::time::sleep(Duration::from_millis(50)).await,
+                    tokio::time::sleep(Duration::from_millis(50)).await;
                 }
+                seen.push((reaction.0.clone(), by_reprise, by_crossfade));
+                handled = Some(reaction);
+                if seen.len() == 4 {
+                    let png = b.screenshot(&shots.join("game-midway.png")).await;
+                    assert!(tinted(&png) > 20_000, "the characters are drawn: {} tinted pixels", tinted(&png));
+                }
+                continue;
             }
-            if outcomes.iter().any(|o| o == "player") && outcomes.iter().any(|o| o != "player") {
-                break;
+            match state["turn"].as_str().unwrap() {
+                "over" => {
+                    outcomes.push(state["outcome"].as_str().unwrap().to_string());
+                    break;
+                }
+                "player" => {
+                    // The player takes a winning square if there is one, else the first free.
+                    let board: Vec<String> = serde_json::from_value(state["board"].clone()).unwrap();
+                    let free: Vec<usize> = (0..9).filter(|&i| board[i] == ".").collect();
+                    let wins = |i: usize| {
+                        let mut b2 = board.clone();
+                        b2[i] = "X".into();
+                        [[0, 1, 2], [3, 4, 5], [6, 7, 8], [0, 3, 6], [1, 4, 7], [2, 5, 8], [0, 4, 8], [2, 4, 6]]
+                            .iter()
+                            .any(|l| l.iter().all(|&j| b2[j] == "X"))
+                    };
+                    let cell = free.iter().copied().find(|&i| wins(i)).unwrap_or(free[0]);
+                    // The page answers with the new state. On a loaded machine (the whole
+                    // suite beside it) a click can land before the page enables the
+                    // square: it is clicked again, up to 30 s in all.
+                    let js = format!("JSON.parse(document.body.dataset.game).board[{cell}] === 'X'");
+                    let mut marked = false;
+                    for _ in 0..6 {
+                        b.eval(&format!("document.querySelector('#game button[data-cell=\"{cell}\"]').click()")).await;
+                        if b.wait_for(&js, 5.0).await {
+                            marked = true;
+                            break;
+                        }
+                    }
+                    moved_at = std::time::Instant::now();
+                    let log = b.eval("document.getElementById('log').textContent").await;
+                    assert!(marked, "square {cell} is marked; the page's log: {log}");
+                }
+                _ => tokio::time::sleep(Duration::from_millis(50)).await,
             }
         }
-        b.screenshot(&shots.join("game-end.png")).await;
-        // Command to changed pixels, the page's own measure (sending a command to the first
-        // draw of the frame it is stamped with): the label buttons, one a second.
-        let before = b.eval("window.reprise.latencies.length").await.as_u64().unwrap();
-        for label in world.labels.iter().take(6) {
-            b.eval(&format!("document.querySelector('#labels button[data-label=\"{label}\"]').click()")).await;
-            tokio::time::sleep(Duration::from_secs(1)).await;
+        if outcomes.iter().any(|o| o == "player") && outcomes.iter().any(|o| o != "player") {
+            break;
         }
-        let js = format!("window.reprise.latencies.length >= {}", before + 6);
-        assert!(b.wait_for(&js, 10.0).await, "every command's frame is drawn");
-        let mut ms: Vec<f64> = serde_json::from_value(b.eval("window.reprise.latencies").await).unwrap();
-        ms.sort_by(f64::total_cmp);
-        eprintln!(
-            "command to pixels (ms): median {:.1}, max {:.1} over {}",
-            ms[ms.len() / 2],
-            ms[ms.len() - 1],
-            ms.len()
-        );
-        eprintln!("games: {outcomes:?}\nreactions (event, reprise reached, crossfade reached): {seen:?}");
-        assert!(b.errors.is_empty(), "JavaScript errors: {:#?}", b.errors);
-        assert!(outcomes.iter().any(|o| o == "player"), "the careless character loses a game: {outcomes:?}");
-        let events: std::collections::HashSet<&str> = seen.iter().map(|s| s.0.as_str()).collect();
-        for e in ["player-turn", "ponder", "lose", "missed-block"] {
-            assert!(events.contains(e), "{e} among the reactions: {seen:?}");
+    }
+    b.screenshot(&shots.join("game-end.png")).await;
+    // Command to changed pixels, the page's own measure (sending a command to the first
+    // draw of the frame it is stamped with): the label buttons, one a second.
+    let before = b.eval("window.reprise.latencies.length").await.as_u64().unwrap();
+    for label in world.labels.iter().take(6) {
+        b.eval(&format!("document.querySelector('#labels button[data-label=\"{label}\"]').click()")).await;
+        tokio::time::sleep(Duration::from_secs(1)).await;
+    }
+    let js = format!("window.reprise.latencies.length >= {}", before + 6);
+    assert!(b.wait_for(&js, 10.0).await, "every command's frame is drawn");
+    let mut ms: Vec<f64> = serde_json::from_value(b.eval("window.reprise.latencies").await).unwrap();
+    ms.sort_by(f64::total_cmp);
+    eprintln!("command to pixels (ms): median {:.1}, max {:.1} over {}", ms[ms.len() / 2], ms[ms.len() - 1], ms.len());
+    eprintln!("games: {outcomes:?}\nreactions (event, reprise reached, crossfade reached): {seen:?}");
+    assert!(b.errors.is_empty(), "JavaScript errors: {:#?}", b.errors);
+    assert!(outcomes.iter().any(|o| o == "player"), "the careless character loses a game: {outcomes:?}");
+    let events: std::collections::HashSet<&str> = seen.iter().map(|s| s.0.as_str()).collect();
+    for e in ["player-turn", "ponder", "lose", "missed-block"] {
+        assert!(events.contains(e), "{e} among the reactions: {seen:?}");
+    }
+    // Every reaction the game waited on reaches its label on both systems; pondering
+    // may end (the character moves) before the face gets there, but not mostly.
+    for (e, by_reprise, by_crossfade) in &seen {
+        if e != "ponder" {
+            assert!(*by_reprise && *by_crossfade, "{e}: reprise {by_reprise}, crossfade {by_crossfade}: {seen:?}");
         }
-        // Every reaction the game waited on reaches its label on both systems; pondering
-        // may end (the character moves) before the face gets there, but not mostly.
-        for (e, by_reprise, by_crossfade) in &seen {
-            if e != "ponder" {
-                assert!(*by_reprise && *by_crossfade, "{e}: reprise {by_reprise}, crossfade {by_crossfade}: {seen:?}");
-            }
-        }
-        let ponders: Vec<_> = seen.iter().filter(|s| s.0 == "ponder").collect();
-        assert!(ponders.iter().filter(|s| s.1).count() * 2 >= ponders.len(), "reprise ponders visibly: {ponders:?}");
-    });
+    }
+    let ponders: Vec<_> = seen.iter().filter(|s| s.0 == "ponder").collect();
+    assert!(ponders.iter().filter(|s| s.1).count() * 2 >= ponders.len(), "reprise ponders visibly: {ponders:?}");
 }

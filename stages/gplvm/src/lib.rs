@@ -64,8 +64,8 @@ pub enum PathKind {
     Subset,
     /// The coarse-graph prior throughout (runs of --connectivity-stride frames as one node).
     Coarse,
-    /// Exact for labels of at most 300 frames, coarse up to 2,000, the subset prior on
-    /// about 300 rows above.
+    /// Exact for labels of at most 300 frames, coarse up to 2,000, the subset prior on 300
+    /// frames spread evenly over the label above (`sampled`).
     Auto,
 }
 

@@ -36,7 +36,7 @@
 //! | `label` | Utf8 | the model |
 //! | `frames`, `d`, `q` | Int64 | training frames $N$, PCA dimension $d$, latent dimension $q$ |
 //! | `inducing_points` | Int64 | $M$ of a sparse (DTC) fit; 0 for the dense fit (the stage's per-label rule chose) |
-//! | `optimizer`, `connectivity_path` | Utf8 | `lbfgs`/`scg`; how the connectivity prior entered (`exact`, `staged`, `subset`, `coarse`) |
+//! | `optimizer`, `connectivity_path` | Utf8 | `lbfgs`/`scg`; how the connectivity prior entered (`exact`, `staged`, `subset`, `sampled`, `coarse`) |
 //! | `stage_iterations` | Utf8 | iterations per stage, `"i"` or `"subset+exact"` |
 //! | `iterations`, `evaluations` | Int64 | optimiser iterations; objective evaluations |
 //! | `initial_objective`, `objective` | Float64 | $E$ at the start and at the optimum |
@@ -362,7 +362,7 @@ pub struct FitSummary {
     pub inducing_points: i64,
     /// The optimiser (`lbfgs`, `scg`).
     pub optimizer: String,
-    /// How the connectivity prior entered the fit (`exact`, `staged`, `subset`, `coarse`).
+    /// How the connectivity prior entered the fit (`exact`, `staged`, `subset`, `sampled`, `coarse`).
     pub connectivity_path: String,
     /// Iterations per stage of the fit (one entry, or the subset stage then the exact one),
     /// written as `stage_iterations` = "i1+i2".

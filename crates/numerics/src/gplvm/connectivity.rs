@@ -173,6 +173,21 @@ pub fn subset_rows(times: &[f64], segments: &[i64], stride: usize) -> Vec<usize>
     rows
 }
 
+/// `count` rows of a [`ConnectivityPrior::on_subset`] spread evenly over all the rows in
+/// order of segment and time: the $\lfloor (k + \frac12)N/\text{count}\rfloor$-th, so the
+/// subset's size, and its prior's cost, do not grow with $N$ or with the number of
+/// segments. All rows when `count` ≥ N.
+pub fn spread_rows(times: &[f64], segments: &[i64], count: usize) -> Vec<usize> {
+    let n = times.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| segments[a].cmp(&segments[b]).then(times[a].total_cmp(&times[b])));
+    let count = count.min(n);
+    let mut rows: Vec<usize> =
+        (0..count).map(|k| order[((k as f64 + 0.5) * n as f64 / count as f64) as usize]).collect();
+    rows.sort_unstable();
+    rows
+}
+
 /// Consecutive frames merged into one node of the coarse graph (see the module docs).
 #[derive(Debug, Clone)]
 struct Coarsening {

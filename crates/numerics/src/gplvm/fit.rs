@@ -22,8 +22,8 @@
 
 use super::params::JitterUsed;
 use super::{
-    coarse_groups, subset_rows, ConnectivityParams, ConnectivityPrior, DynamicsParams, DynamicsPrior, EvalInfo,
-    GplvmError, Hyper, Likelihood, LikelihoodConfig, Objective, Predictor, SignalPrior, SparseLikelihood,
+    coarse_groups, spread_rows, subset_rows, ConnectivityParams, ConnectivityPrior, DynamicsParams, DynamicsPrior,
+    EvalInfo, GplvmError, Hyper, Likelihood, LikelihoodConfig, Objective, Predictor, SignalPrior, SparseLikelihood,
 };
 use crate::lbfgs::{lbfgs, LbfgsOptions};
 use crate::optim::{Convergence, OptInfo, OptIter, OptResult, StopReason};
@@ -124,12 +124,18 @@ pub enum ConnectivityPath {
         /// Frames per node (2 halves the eigenproblem).
         size: usize,
     },
+    /// The subset prior throughout on `rows` rows spread evenly over the label
+    /// ([`super::spread_rows`]): a fixed cost per evaluation whatever $N$.
+    Sampled {
+        /// Rows of the subset.
+        rows: usize,
+    },
     /// The exact prior for labels of at most [`ConnectivityPath::AUTO_EXACT_FRAMES`]
     /// frames (where it costs about as much as the likelihood), the coarse one up to
-    /// [`ConnectivityPath::AUTO_COARSE_FRAMES`], and above that the subset prior on about
-    /// [`ConnectivityPath::AUTO_EXACT_FRAMES`] rows spread evenly over every segment: a
-    /// fixed $O(300^3)$ per evaluation whatever $N$ (film-scale labels; the coarse graph's
-    /// $O((N/k)^3 + N^2)$ would dominate a sparse fit's $O(NM^2)$).
+    /// [`ConnectivityPath::AUTO_COARSE_FRAMES`], and above that `Sampled` on
+    /// [`ConnectivityPath::AUTO_EXACT_FRAMES`] rows: a fixed $O(300^3)$ per evaluation
+    /// whatever $N$ (film-scale labels; the coarse graph's $O((N/k)^3 + N^2)$ would
+    /// dominate a sparse fit's $O(NM^2)$).
     Auto {
         /// Frames per node of the coarse graph.
         size: usize,
@@ -148,7 +154,7 @@ impl ConnectivityPath {
         match self {
             Self::Auto { .. } if n <= Self::AUTO_EXACT_FRAMES => Self::Exact,
             Self::Auto { size } if n <= Self::AUTO_COARSE_FRAMES => Self::Coarse { size },
-            Self::Auto { .. } => Self::Subset { stride: n.div_ceil(Self::AUTO_EXACT_FRAMES) },
+            Self::Auto { .. } => Self::Sampled { rows: Self::AUTO_EXACT_FRAMES },
             other => other,
         }
     }
@@ -161,12 +167,13 @@ impl ConnectivityPath {
         self.ends_exact() || n <= Self::AUTO_COARSE_FRAMES
     }
 
-    /// `"exact"`, `"staged"`, `"subset"`, `"coarse"` or `"auto"`.
+    /// `"exact"`, `"staged"`, `"subset"`, `"sampled"`, `"coarse"` or `"auto"`.
     pub fn name(&self) -> &'static str {
         match self {
             Self::Exact => "exact",
             Self::Staged { .. } => "staged",
             Self::Subset { .. } => "subset",
+            Self::Sampled { .. } => "sampled",
             Self::Coarse { .. } => "coarse",
             Self::Auto { .. } => "auto",
         }
@@ -184,6 +191,9 @@ impl ConnectivityPath {
             Self::Exact | Self::Auto { .. } => Ok(None),
             Self::Staged { stride } | Self::Subset { stride } => {
                 ConnectivityPrior::on_subset(n, subset_rows(data.times, data.segments, stride), q, params).map(Some)
+            }
+            Self::Sampled { rows } => {
+                ConnectivityPrior::on_subset(n, spread_rows(data.times, data.segments, rows), q, params).map(Some)
             }
             Self::Coarse { size } => {
                 ConnectivityPrior::coarse(coarse_groups(data.times, data.segments, size), q, params).map(Some)
@@ -791,6 +801,28 @@ mod tests {
         let full = fit(data, &FitConfig { inducing: Some(n), ..base.clone() }, |_| ()).unwrap();
         let rel = (full.minimised.value - dense.minimised.value) / dense.minimised.value.abs();
         assert!(rel.abs() < 0.02, "M = N: {} vs dense {}", full.minimised.value, dense.minimised.value);
+    }
+
+    /// `Auto` resolves by the label's size, and above 2,000 frames the subset prior has
+    /// about 300 rows whatever N, and the exact prior is not built.
+    #[test]
+    fn the_auto_connectivity_path_keeps_its_cost_fixed_at_film_scale() {
+        let auto = ConnectivityPath::Auto { size: 3 };
+        assert_eq!(auto.for_frames(300), ConnectivityPath::Exact);
+        assert_eq!(auto.for_frames(301), ConnectivityPath::Coarse { size: 3 });
+        assert_eq!(auto.for_frames(2000), ConnectivityPath::Coarse { size: 3 });
+        for n in [2001, 6000, 64_000] {
+            let path = auto.for_frames(n);
+            assert_eq!(path, ConnectivityPath::Sampled { rows: 300 });
+            let times: Vec<f64> = (0..n).map(|i| (i % 240) as f64).collect();
+            let segs: Vec<i64> = (0..n).map(|i| (i / 240) as i64).rev().collect();
+            let rows = spread_rows(&times, &segs, 300);
+            assert_eq!(rows.len(), 300, "{n} frames");
+            assert!(rows.windows(2).all(|w| w[0] < w[1]), "distinct rows in order");
+            assert!(!path.exact_for(n) && auto.for_frames(2000).exact_for(2000));
+        }
+        assert_eq!(spread_rows(&[0.0, 1.0], &[0, 0], 300), [0, 1]);
+        assert!(ConnectivityPath::Staged { stride: 2 }.exact_for(64_000));
     }
 
     /// Starting inducing points: evenly spread, distinct where frames repeat a pose, and a

@@ -44,7 +44,9 @@ pub mod sparse;
 #[cfg(test)]
 pub(crate) mod testutil;
 
-pub use connectivity::{coarse_groups, subset_rows, ConnectivityEval, ConnectivityParams, ConnectivityPrior};
+pub use connectivity::{
+    coarse_groups, spread_rows, subset_rows, ConnectivityEval, ConnectivityParams, ConnectivityPrior,
+};
 pub use dynamics::{DynamicsParams, DynamicsPrior};
 pub use fit::{fit, fit_observed, ConnectivityPath, Evaluation, Fit, FitConfig, FitData, Optimizer};
 pub use latent::{best_latent, LatentDensity, ProjectOptions, Projection};

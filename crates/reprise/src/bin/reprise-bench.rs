@@ -7,9 +7,13 @@
 //! Run from the repository root after `cargo build --release`:
 //! `target/release/reprise-bench`.
 //!
-//! `target/release/reprise-bench --sparse` instead measures one evaluation of the sparse
-//! (DTC) GPLVM likelihood for N ∈ {1k, 4k, 16k, 64k} × M ∈ {25, 50, 100, 200} inducing
-//! points, beside the dense likelihood where it is feasible (#32).
+//! `target/release/reprise-bench --sparse` instead measures the sparse (DTC) GPLVM (#32):
+//! one evaluation for N ∈ {1k, 4k, 16k, 64k} × M ∈ {25, 50, 100, 200} inducing points
+//! beside the dense likelihood where it is feasible; whole fits with held-out error for
+//! N up to `--fit-max-n` against the dense fit up to N = 4k; and the gplvm stage on the
+//! default corpus (the paper's scale) dense and sparse.
+//!
+//! `target/release/reprise-bench --film` runs only the film-scale pipeline.
 //!
 //! `target/release/reprise-bench --verdicts-seed 8` instead runs the default pipeline on the
 //! corpus of `pipeline.toml` and on the corpus generated with seed 8, and lists, per headline
@@ -36,9 +40,16 @@ struct Args {
     /// this generator seed and list which of the default run's verdicts survive.
     #[arg(long, value_name = "SEED")]
     verdicts_seed: Option<u64>,
-    /// Instead of the benchmarks: the sparse GPLVM likelihood's cost per evaluation.
+    /// Instead of the benchmarks: the sparse GPLVM's costs, fits and held-out errors.
     #[arg(long)]
     sparse: bool,
+    /// Instead of the benchmarks: only the film-scale pipeline (--minutes of dragon-face).
+    #[arg(long)]
+    film: bool,
+    /// With --sparse: the largest N of the fit table (fits at 64,000 frames take tens of
+    /// minutes each).
+    #[arg(long, default_value_t = 16_000)]
+    fit_max_n: usize,
 }
 
 fn main() {
@@ -59,8 +70,13 @@ fn bench(args: &Args) -> Result<()> {
     if let Some(seed) = args.verdicts_seed {
         return verdicts(args, seed);
     }
+    if args.film {
+        return film_scale(args, tempfile::tempdir()?.path());
+    }
     if args.sparse {
-        return sparse_costs();
+        sparse_costs()?;
+        sparse_stage(args)?;
+        return sparse_fits(args.fit_max_n);
     }
     let dir = tempfile::tempdir()?;
     println!("# reprise benchmarks\n");
@@ -392,5 +408,173 @@ fn sparse_costs() -> Result<()> {
         println!("| {n} | {dense} | {} |", cells.join(" | "));
     }
     println!("\nDense beyond N = 4,000 is not run: one evaluation costs N³ (about 64 × the N = 4,000 one at 16,000).");
+    Ok(())
+}
+
+/// The fit data of [`sparse_costs`]'s curve: `n` frames in segments of 240 (10 s at 24 fps)
+/// of a smooth 3-D latent path seen through 32 nonlinear outputs plus noise of 2 % of their
+/// spread: (Y, frame times in seconds, segment ids).
+fn curve_data(n: usize) -> (Vec<f64>, Vec<f64>, Vec<i64>) {
+    let d = 32;
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let mut noise = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let y = (0..n)
+        .flat_map(|i| {
+            let t = 6.0 * i as f64 / n as f64 + (i / 240) as f64 * 0.37;
+            let p = [t.sin(), (1.3 * t).cos(), 0.2 * (t % 6.0) - 0.6];
+            (0..d).map(move |j| (p[j % 3] * (1.0 + j as f64 * 0.1) + p[(j + 1) % 3]).sin()).collect::<Vec<_>>()
+        })
+        .map(|v| v + 0.07 * noise())
+        .collect();
+    let times = (0..n).map(|i| (i % 240) as f64 / 24.0).collect();
+    let segments = (0..n).map(|i| (i / 240) as i64).collect();
+    (y, times, segments)
+}
+
+/// The largest N [`sparse_fits`] fits dense: one dense evaluation at N = 4,000 costs about
+/// 50 × the N = 1,000 one (2.5 s here) and a fit takes thousands, hours in all.
+const DENSE_FIT_MAX_N: usize = 1_000;
+
+/// Whole fits under the gplvm stage's default settings on [`curve_data`], every 10th frame
+/// held out: seconds, iterations, whether the fit converged, and the held-out frames' RMS
+/// error through their best latent point, dense (N ≤ [`DENSE_FIT_MAX_N`]) and sparse.
+fn sparse_fits(max_n: usize) -> Result<()> {
+    use clap::Parser as _;
+    use reprise_numerics::gplvm::{best_latent, fit, FitConfig, FitData, ProjectOptions};
+    // The stage's defaults (its files are not read here).
+    let files = ["--coords", "--labeled-frames", "--latents", "--models", "--trace", "--fits"];
+    let argv = std::iter::once("reprise-gplvm").chain(files.iter().flat_map(|f| [*f, "unused"]));
+    let base = reprise_gplvm::Args::try_parse_from(argv)?.fit_config();
+    let d = 32;
+    println!("\n## Whole fits, dense and sparse\n");
+    println!(
+        "The gplvm stage's default settings (both priors, the noise floor, L-BFGS to the window rule); a smooth \
+         3-D path seen in {d} outputs with 2 % noise, in segments of 240 frames; every 10th frame held out and \
+         found again through its best latent point. Error: RMS over the held-out values (outputs of unit size). \
+         Ratios against the dense fit of the same N in this run.\n"
+    );
+    println!(
+        "| N | fit | seconds | iterations | converged | held-out RMS | vs dense |\n|---:|---|---:|---:|---|---:|---:|"
+    );
+    for n in [1_000, 4_000, 16_000, 64_000].into_iter().filter(|&n| n <= max_n) {
+        let (y, times, segments) = curve_data(n);
+        let held: Vec<usize> = (0..n).filter(|i| i % 10 == 5).collect();
+        let train: Vec<usize> = (0..n).filter(|i| i % 10 != 5).collect();
+        let pick = |rows: &[usize], v: &[f64], w: usize| -> Vec<f64> {
+            rows.iter().flat_map(|&i| v[i * w..(i + 1) * w].to_vec()).collect()
+        };
+        let (ty, tt) = (pick(&train, &y, d), pick(&train, &times, 1));
+        let ts: Vec<i64> = train.iter().map(|&i| segments[i]).collect();
+        let data = FitData { y: &ty, d, times: &tt, segments: &ts };
+        let mut dense_err = None;
+        let ms: Vec<Option<usize>> = [None, Some(25), Some(50), Some(100), Some(200)]
+            .into_iter()
+            .filter(|m| m.is_some() || n <= DENSE_FIT_MAX_N)
+            .collect();
+        for m in ms {
+            let config = FitConfig { inducing: m, ..base.clone() };
+            let t = Instant::now();
+            let mut evals = 0;
+            let f = fit(data, &config, |value| {
+                evals += 1;
+                if evals % 500 == 0 {
+                    eprintln!("reprise-bench: N = {n}, M = {m:?}: evaluation {evals}, objective {value:.3}");
+                }
+            })?;
+            let seconds = t.elapsed().as_secs_f64();
+            let train_mu: Vec<f64> =
+                f.x.chunks_exact(config.q)
+                    .flat_map(|x| {
+                        let mut mu = vec![0.0; d];
+                        f.predictor.mean(x, &mut mu);
+                        mu
+                    })
+                    .collect();
+            let mut sq = 0.0;
+            for &i in &held {
+                let target: Vec<f64> = y[i * d..(i + 1) * d].iter().zip(&f.offset).map(|(v, o)| v - o).collect();
+                let found = best_latent(&f.predictor, &target, &f.x, &train_mu, &ProjectOptions::default());
+                sq += found.sq_error;
+            }
+            let rms = (sq / (held.len() * d) as f64).sqrt();
+            if m.is_none() {
+                dense_err = Some(rms);
+            }
+            let name = m.map_or("dense".to_string(), |m| format!("M = {m}"));
+            let vs = dense_err.filter(|_| m.is_some()).map_or("–".into(), |e| format!("{:.3}", rms / e));
+            println!(
+                "| {n} | {name} | {seconds:.1} | {} | {} | {rms:.4} | {vs} |",
+                f.info.iterations,
+                if f.info.converged { "yes" } else { "NO" }
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The gplvm stage on the default corpus (labels of a few hundred frames, the paper's
+/// scale) dense, then sparse for every label at M ∈ {25, 50, 100}: the stage's summed
+/// per-label fit seconds, whether every label converged, and the frame-weighted held-out
+/// mesh error of its check, each against the dense run's in this run. Then the mixed-label
+/// model of the paper's §7: every clip one label, one sparse GPLVM over all of them.
+fn sparse_stage(args: &Args) -> Result<()> {
+    let toml = std::fs::read_to_string(args.repo.join("pipeline.toml"))?;
+    let labels = std::fs::read_to_string(args.repo.join("datasets/dragon-face/labels.toml"))?;
+    let mixed = "[[rule]]\npattern = \"*\"\nlabel = \"all\"\n";
+    println!("\n## The gplvm stage at the paper's scale (dragon-face), dense, sparse, and one mixed-label model\n");
+    println!(
+        "Fit seconds: the labels' fits summed (the held-out refits not counted). Held-out: every 10th frame left \
+         out of PCA and GPLVM and found again, RMS vertex distance (cm) over every held-out frame of every label.\n"
+    );
+    println!(
+        "| model | labels | fit seconds (sum) | × dense | converged | held-out mesh RMS | × dense |\n\
+         |---|---:|---:|---:|---|---:|---:|"
+    );
+    let runs: [(&str, Option<usize>, &str); 7] = [
+        ("eight labels, dense", None, &labels),
+        ("eight labels, sparse M = 25", Some(25), &labels),
+        ("eight labels, sparse M = 50", Some(50), &labels),
+        ("eight labels, sparse M = 100", Some(100), &labels),
+        ("one mixed label, sparse M = 100", Some(100), mixed),
+        ("one mixed label, sparse M = 200", Some(200), mixed),
+        ("one mixed label, sparse M = 400", Some(400), mixed),
+    ];
+    let mut dense: Option<(f64, f64)> = None;
+    for (name, m, labels) in runs {
+        let dir = tempfile::tempdir()?;
+        std::fs::create_dir_all(dir.path().join("datasets/dragon-face"))?;
+        std::fs::write(dir.path().join("datasets/dragon-face/labels.toml"), labels)?;
+        let rule = m.map_or(String::new(), |m| format!("\nsparse = \"always\"\ninducing = {m}"));
+        let toml = toml.replace("heldout_every = 10", &format!("heldout_every = 10{rule}"));
+        std::fs::write(dir.path().join("pipeline.toml"), toml)?;
+        eprintln!("reprise-bench: gplvm, {name} …");
+        let out = Command::new(bin("reprise")).args(["run", "--to", "gplvm"]).current_dir(dir.path()).output()?;
+        if !out.status.success() {
+            let why = String::from_utf8_lossy(&out.stderr).lines().last().unwrap_or("").to_string();
+            println!("| {name} | refused: {why} | | | | | |");
+            continue;
+        }
+        let fits = reprise_artifact::gplvm::read_fits(&dir.path().join("artifacts/dragon-face/gplvm_fits.parquet"))?;
+        let seconds: f64 = fits.iter().map(|f| f.seconds).sum();
+        let frames: f64 = fits.iter().map(|f| f.heldout_frames as f64).sum();
+        // The RMS over every held-out frame of every label.
+        let sq: f64 =
+            fits.iter().map(|f| f.heldout_gplvm_mesh_rmse.unwrap_or(f64::NAN).powi(2) * f.heldout_frames as f64).sum();
+        let held = (sq / frames).sqrt();
+        let converged = fits.iter().filter(|f| f.converged).count();
+        let (s0, h0) = *dense.get_or_insert((seconds, held));
+        println!(
+            "| {name} | {} | {seconds:.1} | {:.2} | {converged} of {} | {held:.4} | {:.3} |",
+            fits.len(),
+            seconds / s0,
+            fits.len(),
+            held / h0
+        );
+    }
     Ok(())
 }
