@@ -44,6 +44,9 @@ fn main() {
         std::process::exit(2);
     };
     let (n, d, q) = (data.n(), data.d, config.q);
+    // The stage's per-label rule (dense, or sparse with M inducing points).
+    let inducing = args.inducing_for(label, n).unwrap_or_else(|e| panic!("{e}"));
+    let config = reprise_numerics::gplvm::FitConfig { inducing, ..config };
     let layout = Layout::new(n, q);
     // Mean per-dimension variance of the (centred) PCA coordinates.
     let mean: Vec<f64> = (0..d).map(|j| (0..n).map(|i| data.y[i * d + j]).sum::<f64>() / n as f64).collect();

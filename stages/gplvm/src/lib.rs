@@ -250,6 +250,10 @@ pub struct Args {
     /// Inducing points M of a sparse fit (one evaluation costs O(N M²)).
     #[arg(long, default_value_t = DEFAULT_INDUCING)]
     pub inducing: usize,
+    /// The sparse objective: Titsias's collapsed variational bound (true), or the DTC
+    /// likelihood without its trace term (false).
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    pub sparse_bound: bool,
 
     /// Held-out check: leave out every K-th frame of each label (0: off).
     #[arg(long, default_value_t = 0)]
@@ -299,6 +303,7 @@ impl Args {
             optimizer: self.optimizer(),
             whiten: self.whiten,
             inducing: None,
+            sparse_bound: self.sparse_bound,
         }
     }
 

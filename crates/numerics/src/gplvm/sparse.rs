@@ -55,6 +55,8 @@ pub struct SparseLikelihood {
     y: Mat<f64>,
     yy: f64,
     q: usize,
+    /// Whether Titsias's trace term is added ([`SparseLikelihood::bound`]).
+    bound: bool,
 }
 
 impl SparseLikelihood {
@@ -67,7 +69,16 @@ impl SparseLikelihood {
             return Err(GplvmError::Shape(format!("{} values are not rows of {d} (q = {q})", y.len())));
         }
         let n = y.len() / d;
-        Ok(Self { y: Mat::from_fn(n, d, |i, j| y[i * d + j]), yy: y.iter().map(|v| v * v).sum(), q })
+        Ok(Self { y: Mat::from_fn(n, d, |i, j| y[i * d + j]), yy: y.iter().map(|v| v * v).sum(), q, bound: false })
+    }
+
+    /// The same data under Titsias's collapsed variational bound (2009; GPy's
+    /// `SparseGPLVM`, GPflow's SGPR) for point latents: DTC's $E$ plus
+    /// $\frac{D}{2\sigma^2}\operatorname{tr}(K_{ff} - Q_{ff})$, so $E$ bounds the dense $E$ from
+    /// above and a latent far from every inducing point pays for what they cannot
+    /// explain there.
+    pub fn bound(self) -> Self {
+        Self { bound: true, ..self }
     }
 
     /// Rows $N$.
@@ -126,17 +137,24 @@ impl SparseLikelihood {
         let btw: f64 = (0..m).flat_map(|i| (0..d).map(move |j| (i, j))).map(|(i, j)| vy[(i, j)] * what[(i, j)]).sum();
         let log_c = (n - m) as f64 * s2.ln() + logdet_b;
         let fit = self.yy - btw;
-        let value =
-            0.5 * d as f64 * log_c + fit / (2.0 * s2) + 0.5 * (n * d) as f64 * (2.0 * std::f64::consts::PI).ln();
+        // Titsias's trace term (the bound's): c·T, c = D/(2σ²), T = tr(K_ff − Q_ff) = Nσf² − ‖V‖².
+        let c = if self.bound { 0.5 * d as f64 / s2 } else { 0.0 };
+        let trace = n as f64 * sf2
+            - (0..m).flat_map(|i| (0..n).map(move |j| (i, j))).map(|(i, j)| v[(i, j)].powi(2)).sum::<f64>();
+        let value = 0.5 * d as f64 * log_c
+            + fit / (2.0 * s2)
+            + 0.5 * (n * d) as f64 * (2.0 * std::f64::consts::PI).ln()
+            + c * trace;
 
         // ∂E/∂K_uu = L⁻ᵀGL⁻¹ with G = (D/2)(σ²B⁻¹ − I) + ½ŴŴᵀ, and
         // ∂E/∂K_uf = L⁻ᵀR with R = D·B⁻¹V − σ⁻²Ŵ(Y − VᵀŴ)ᵀ.
         let b_inv = lb.solve(Mat::<f64>::identity(m, m));
         let half_d = 0.5 * d as f64;
-        let mut g = &b_inv * (half_d * s2) + (&what * what.transpose()) * 0.5;
+        // The trace term adds c·VVᵀ to G and −2c·V to R.
+        let mut g = &b_inv * (half_d * s2) + (&what * what.transpose()) * 0.5 + (&v * v.transpose()) * c;
         (0..m).for_each(|i| g[(i, i)] -= half_d);
         let resid = &self.y - v.transpose() * &what;
-        let mut g_uf = (&b_inv * &v) * d as f64 - (&what * resid.transpose()) * (1.0 / s2);
+        let mut g_uf = (&b_inv * &v) * d as f64 - (&what * resid.transpose()) * (1.0 / s2) - &v * (2.0 * c);
         let lt = l.transpose();
         triangular_solve::solve_upper_triangular_in_place(lt, g_uf.as_mut(), Par::Seq);
         triangular_solve::solve_upper_triangular_in_place(lt, g.as_mut(), Par::Seq);
@@ -146,12 +164,13 @@ impl SparseLikelihood {
         let tr_b_inv: f64 = (0..m).map(|i| b_inv[(i, i)]).sum();
         let w_sq: f64 = (0..m).flat_map(|i| (0..d).map(move |j| (i, j))).map(|(i, j)| what[(i, j)].powi(2)).sum();
         let tr_hk = half_d * tr_b_inv + w_sq / (2.0 * s2);
-        let d_s2 = 0.5 * d as f64 * (n - m) as f64 / s2 + tr_hk - fit / (2.0 * s2 * s2);
+        let d_s2 = 0.5 * d as f64 * (n - m) as f64 / s2 + tr_hk - fit / (2.0 * s2 * s2) - c * trace / s2;
 
         // Through the kernel: ∂k(a, b)/∂a = k (b − a)/ℓ², ∂k/∂σf² = k/σf², ∂k/∂ℓ = k|a − b|²/ℓ³.
         grad_x.fill(0.0);
         grad_u.fill(0.0);
-        let (mut d_sf2, mut d_ell) = (0.0, 0.0);
+        // The trace term's Nσf² (the diagonal of K_ff).
+        let (mut d_sf2, mut d_ell) = (c * n as f64, 0.0);
         let ell3 = ell2 * hyper.lengthscale;
         for i in 0..m {
             for j in 0..n {
@@ -263,8 +282,15 @@ mod tests {
 
     #[test]
     fn every_gradient_matches_central_differences() {
+        for bound in [false, true] {
+            every_gradient_matches(bound);
+        }
+    }
+
+    fn every_gradient_matches(bound: bool) {
         let (y, x, u) = problem();
         let lik = SparseLikelihood::new(&y, 3, 2).unwrap();
+        let lik = if bound { lik.bound() } else { lik };
         let hyper = Hyper { rbf_variance: 1.3, lengthscale: 0.7, white_variance: 0.05 };
         let (mut gx, mut gu) = (vec![0.0; x.len()], vec![0.0; u.len()]);
         let e = lik.evaluate(&x, &u, &hyper, &mut gx, &mut gu).unwrap();
@@ -297,6 +323,26 @@ mod tests {
         close((value(&x, &u, &a) - value(&x, &u, &b)) / (2.0 * h), e.grad_hyper.lengthscale, "ℓ");
         let (a, b) = bump(&|p, s| p.white_variance += s);
         close((value(&x, &u, &a) - value(&x, &u, &b)) / (2.0 * h), e.grad_hyper.white_variance, "σw²");
+    }
+
+    /// Titsias's bound lies above the dense $E$ (it bounds $\log p$ from below), above DTC's
+    /// by exactly the trace term, and meets the dense $E$ with the inducing points at the
+    /// latents.
+    #[test]
+    fn the_bound_lies_above_the_dense_likelihood_and_meets_it_at_the_latents() {
+        let (y, x, u) = problem();
+        let hyper = Hyper { rbf_variance: 1.1, lengthscale: 0.8, white_variance: 0.02 };
+        let config = LikelihoodConfig { jitter: Jitter::NONE, white_floor: 0.0, ..LikelihoodConfig::default() };
+        let dense =
+            Likelihood::new(&y, 3, 2, config).unwrap().evaluate(&x, &hyper, &mut vec![0.0; x.len()]).unwrap().value;
+        let (dtc, vfe) = (SparseLikelihood::new(&y, 3, 2).unwrap(), SparseLikelihood::new(&y, 3, 2).unwrap().bound());
+        let mut e = |l: &SparseLikelihood, u: &[f64]| {
+            l.evaluate(&x, u, &hyper, &mut vec![0.0; x.len()], &mut vec![0.0; u.len()]).unwrap().value
+        };
+        let (few_dtc, few_vfe) = (e(&dtc, &u), e(&vfe, &u));
+        assert!(few_vfe > dense && few_vfe > few_dtc, "bound {few_vfe}, DTC {few_dtc}, dense {dense}");
+        let at = e(&vfe, &x);
+        assert!((at - dense).abs() < 1e-4 * dense.abs().max(1.0), "{at} vs {dense}");
     }
 
     #[test]
