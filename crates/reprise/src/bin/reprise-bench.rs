@@ -379,7 +379,7 @@ fn sparse_costs() -> Result<()> {
         }))
     };
     let reference = dense_at(1000)?;
-    println!("# The sparse (DTC) GPLVM likelihood: one evaluation\n");
+    println!("# The sparse GPLVM likelihood (DTC; the bound's trace term adds O(NM)): one evaluation\n");
     println!(
         "{} logical CPUs; q = {q}, D = {d}; value and every gradient; the reference is one dense evaluation at \
          N = 1,000 in this run: {:.4} s\n",
