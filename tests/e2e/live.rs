@@ -337,7 +337,7 @@ fn the_game_plays_in_chromium_through_the_page() {
     let server = serve(p, 4);
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build().unwrap();
     // However the page or the browser stalls, the test ends (about 2 minutes alone).
-    rt.block_on(async { tokio::time::timeout(Duration::from_secs(900), play(&world, &file, &server, &shots)).await })
+    rt.block_on(async { tokio::time::timeout(Duration::from_secs(900), play(world, &file, &server, &shots)).await })
         .expect("the browser test finishes within 15 minutes");
 }
 

@@ -235,7 +235,8 @@ impl Predictor {
     ///
     /// # Errors
     /// [`GplvmError::Shape`] for wrong shapes or inducing points the fit refuses
-    /// ([`super::sparse::check_inducing`]), or matrices that will not factor.
+    /// (none, more than the latents, or two within [`super::sparse::COINCIDE`] length
+    /// scales), or matrices that will not factor.
     pub fn sparse(
         x: &[f64],
         u: &[f64],
@@ -298,7 +299,8 @@ impl Predictor {
         self.white_used
     }
 
-    /// $v(x_*)$ (see [`VarianceFactor`]'s forms), plus $\sigma_w^2$ if `with_noise` (the
+    /// $v(x_*)$: dense $\sigma_f^2 - k_*^\top K^{-1}k_*$, sparse (DTC)
+    /// $\sigma_f^2 - k_*^\top K_{uu}^{-1}k_* + \sigma^2k_*^\top A^{-1}k_*$; plus $\sigma_w^2$ if `with_noise` (the
     /// variance of a new observation rather than of the latent function).
     pub fn variance(&self, x_star: &[f64], with_noise: bool) -> f64 {
         assert_eq!(x_star.len(), self.q(), "x* must have q values");

@@ -339,7 +339,7 @@ mod tests {
         let dense =
             Likelihood::new(&y, 3, 2, config).unwrap().evaluate(&x, &hyper, &mut vec![0.0; x.len()]).unwrap().value;
         let (dtc, vfe) = (SparseLikelihood::new(&y, 3, 2).unwrap(), SparseLikelihood::new(&y, 3, 2).unwrap().bound());
-        let mut e = |l: &SparseLikelihood, u: &[f64]| {
+        let e = |l: &SparseLikelihood, u: &[f64]| {
             l.evaluate(&x, u, &hyper, &mut vec![0.0; x.len()], &mut vec![0.0; u.len()]).unwrap().value
         };
         let (few_dtc, few_vfe) = (e(&dtc, &u), e(&vfe, &u));
