@@ -507,13 +507,14 @@ pub fn fit_observed(
     let signal = (config.signal_prior_sd > 0.0)
         .then_some(SignalPrior { median: hyper0.rbf_variance, log_sd: config.signal_prior_sd });
     let coords = Coordinates { white: dynamics.clone().filter(|_| config.whiten), nq: n * q };
-    let objective = match config.inducing {
+    // The frames whose latents are the inducing points (a sparse fit), chosen once.
+    let rows = config.inducing.map(|m| inducing_rows(&x0, q, m)).transpose()?;
+    let objective = match &rows {
         None => Objective::new(Likelihood::new(&y, d, q, lik_config)?, dynamics, connectivity)?,
-        Some(m) => {
-            let rows = inducing_rows(&x0, q, m)?;
+        Some(rows) => {
             let likelihood = SparseLikelihood::new(&y, d, q)?;
             let likelihood = if config.sparse_bound { likelihood.bound() } else { likelihood };
-            Objective::sparse(likelihood, rows, lik_config, dynamics, connectivity)?
+            Objective::sparse(likelihood, rows.clone(), lik_config, dynamics, connectivity)?
         }
     };
     let mut objective = objective.with_signal_prior(signal)?;
@@ -557,10 +558,10 @@ pub fn fit_observed(
     let minimised = fitted.unwrap_or_else(|| last.clone());
     let hyper = layout.hyper(&point);
     let x = layout.x(&point).to_vec();
-    let predictor = match config.inducing {
+    let predictor = match &rows {
         None => Predictor::new(&x, &y, d, hyper, &lik_config)?,
-        Some(m) => {
-            let u: Vec<f64> = inducing_rows(&x0, q, m)?.iter().flat_map(|&r| x[r * q..(r + 1) * q].to_vec()).collect();
+        Some(rows) => {
+            let u: Vec<f64> = rows.iter().flat_map(|&r| x[r * q..(r + 1) * q].to_vec()).collect();
             Predictor::sparse(&x, &u, &y, d, hyper, &lik_config)?
         }
     };
